@@ -1,0 +1,75 @@
+#pragma once
+// The robot description of spec/robot.md: drive type, wheel names, nominal
+// parameters, sensor mounts and motion limits, read from YAML and validated.
+
+#include <map>
+#include <optional>
+#include <string>
+#include <vector>
+
+namespace calib {
+
+enum class DriveType { kDifferential, kTricycle, kDualSteer };
+
+// "differential", "tricycle", "dual_steer".
+const char* DriveTypeName(DriveType type);
+
+// Wheel roles of a drive type, in the fixed order used by libcalib
+// (differential: left, right; tricycle: drive; dual_steer: a1, a2).
+const std::vector<std::string>& WheelRoles(DriveType type);
+
+// Parameter names of a drive type, as in spec/robot.md, in a fixed order.
+const std::vector<std::string>& ParamNames(DriveType type);
+
+// Mount of a planar sensor (2D lidar, tracked point of an external pose source)
+// in the robot frame: m, m, rad.
+struct Mount2d {
+  std::string channel;
+  double x = 0.0, y = 0.0, yaw = 0.0;
+};
+
+// Mount of a 3D lidar: z, pitch, roll relative to the floor; x, y, yaw in the robot frame.
+struct Mount3d {
+  std::string channel = "CLOUD";
+  double x = 0.0, y = 0.0, z = 0.0, roll = 0.0, pitch = 0.0, yaw = 0.0;
+};
+
+struct ImuMount {
+  std::string channel = "IMU";
+  double yaw = 0.0;
+};
+
+// Motion limits the commander must respect.
+struct Limits {
+  double max_speed = 0.5;       // m/s at the reference point (and at each wheel's contact point)
+  double max_omega = 0.5;       // rad/s
+  double max_accel = 0.5;       // m/s^2
+  double max_steer = 1.3;       // rad, true steering angle
+  double max_steer_rate = 1.0;  // rad/s
+};
+
+struct RobotDescription {
+  std::string name;
+  DriveType drive = DriveType::kDifferential;
+  std::map<std::string, std::string> wheels;  // role -> name used in wheel_state_t.name
+  std::map<std::string, double> params;       // the drive type's ParamNames(), all present
+  std::optional<Mount2d> lidar2d;
+  std::optional<Mount3d> lidar3d;
+  std::optional<ImuMount> imu;
+  std::optional<Mount2d> pose;                // external pose source
+  Limits limits;
+  std::string source_file;                    // where it was read from (for messages)
+
+  double param(const std::string& key) const;  // throws std::out_of_range naming the key
+  const std::string& wheel_name(const std::string& role) const;
+};
+
+// Reads and validates a robot file. Throws InputError naming the file, the line
+// and the key for a YAML syntax error, an unknown key (a typo), a missing key,
+// a wrong type or an implausible value.
+RobotDescription LoadRobotFile(const std::string& path);
+
+// Same, from YAML text; `origin` names the text in error messages.
+RobotDescription ParseRobot(const std::string& yaml_text, const std::string& origin);
+
+}  // namespace calib
