@@ -39,6 +39,14 @@ const std::vector<std::string>& ParamNames(DriveType type) {
   throw std::logic_error("unknown drive type");
 }
 
+std::string RadiusParamName(const std::string& role) { return role + "_radius"; }
+
+std::string SteerOffsetParamName(const std::string& role) {
+  if (role == "drive") return "steer_offset";
+  if (role == "a1") return "a1_steer_offset";
+  return "";
+}
+
 double RobotDescription::param(const std::string& key) const {
   auto it = params.find(key);
   if (it == params.end()) throw std::out_of_range("robot " + name + " has no parameter " + key);

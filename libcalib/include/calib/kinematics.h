@@ -10,6 +10,10 @@
 // Inverse: a body twist at the reference point -> per-wheel drive speeds and
 // raw steering setpoints, what a commander or a simulator needs.
 //
+// Dual steer has four contact-point velocity components for three unknowns
+// (vx, vy, omega); Forward and Integrate take the least-squares solution, which
+// is exact when the two wheels agree (wheel slip spreads over all three).
+//
 // Reference points and parameters (spec/robot.md):
 //   differential: middle of the drive axle; left_radius, right_radius, track.
 //   tricycle:     middle of the rear axle; drive wheel at (wheelbase, 0);
@@ -68,7 +72,12 @@ class DriveModel {
 };
 
 // Builds the model of a drive type from parameter values keyed by the names of
-// spec/robot.md (all of ParamNames(type) must be present).
+// spec/robot.md. All of ParamNames(type) must be present; other keys are
+// ignored, so a map holding sensor values too can be passed. Throws
+// std::invalid_argument naming the key for a missing or non-finite value, and
+// for unusable geometry: a radius <= 0, track <= 0, wheelbase == 0, or
+// a == b == 0 (dual-steer wheels at one point cannot determine the rotation).
+// Vectors of the wrong length passed to the model throw std::invalid_argument.
 std::unique_ptr<DriveModel> MakeDriveModel(DriveType type,
                                            const std::map<std::string, double>& params);
 

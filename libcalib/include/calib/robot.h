@@ -21,6 +21,15 @@ const std::vector<std::string>& WheelRoles(DriveType type);
 // Parameter names of a drive type, as in spec/robot.md, in a fixed order.
 const std::vector<std::string>& ParamNames(DriveType type);
 
+// Name of the rolling-radius parameter of a wheel role ("left" -> "left_radius",
+// "drive" -> "drive_radius", "a1" -> "a1_radius", ...).
+std::string RadiusParamName(const std::string& role);
+
+// Name of the steering-offset parameter of a wheel role ("drive" ->
+// "steer_offset", "a1" -> "a1_steer_offset"); empty for a wheel whose raw
+// steering reading needs no offset (a2) or that does not steer.
+std::string SteerOffsetParamName(const std::string& role);
+
 // Mount of a planar sensor (2D lidar, tracked point of an external pose source)
 // in the robot frame: m, m, rad.
 struct Mount2d {

@@ -59,12 +59,24 @@ class World {
 
  private:
   void BuildIndex();
+  // Nearest t in [0, t_max] at which o + t*d (horizontal part of the ray)
+  // meets a wall face whose height range contains oz + t*dz; kNoHit if none.
+  // Walks the grid cells along the ray and stops at the first cell that
+  // holds a hit nearer than the cell's exit, so cost grows with the distance
+  // to the hit, not with the number of segments.
+  double Traverse(double ox, double oy, double dx, double dy, double t_max, double oz,
+                  double dz) const;
+
   std::vector<WallSegment> segments_;
-  // Uniform grid over the segments' bounding box, for fast ray casting.
+  double max_height_ = 0.0;  // rays climbing above it can hit nothing but the floor
+  // Uniform grid over the segments' bounding box: cell (ix, iy) covers
+  // grid_min_ + [ix, ix+1) x [iy, iy+1) * cell_, and holds the segments
+  // cell_items_[cell_start_[iy*nx_+ix] .. cell_start_[iy*nx_+ix+1]).
   double cell_ = 1.0;
   Eigen::Vector2d grid_min_ = Eigen::Vector2d::Zero();
   int nx_ = 0, ny_ = 0;
-  std::vector<std::vector<int>> cells_;
+  std::vector<int> cell_start_;
+  std::vector<int> cell_items_;
 };
 
 // Distance along the unit direction `dir` from `origin` to the box, kNoHit if

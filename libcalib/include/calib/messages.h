@@ -1,0 +1,49 @@
+#pragma once
+// Conversions between the messages of spec/messages.md (generated from
+// lcmtypes/) and libcalib's plain data, and encoding helpers. No bus here.
+
+#include <cstdint>
+#include <string>
+#include <vector>
+
+#include "agvcal/drive_command_t.hpp"
+#include "calib/drive_command.h"
+#include "calib/robot.h"
+
+namespace calib {
+
+// Channel names of spec/messages.md and the internal ones.
+inline constexpr const char* kWheelsChannel = "WHEELS";
+inline constexpr const char* kScanChannel = "SCAN";
+inline constexpr const char* kCloudChannel = "CLOUD";
+inline constexpr const char* kImuChannel = "IMU";
+inline constexpr const char* kDriveCmdChannel = "DRIVE_CMD";
+inline constexpr const char* kPoseChannel = "POSE";
+inline constexpr const char* kGroundTruthChannel = "GROUND_TRUTH";
+inline constexpr const char* kHeartbeatChannel = "HEARTBEAT";
+inline constexpr const char* kCommanderStatusChannel = "COMMANDER_STATUS";
+
+// A command for the robot's wheels, named as in the robot file.
+agvcal::drive_command_t ToMessage(const DriveCommand& command, const RobotDescription& robot,
+                                  int64_t seq);
+
+// The command in WheelRoles() order; throws InputError if a wheel of the
+// robot is missing from a mode-1 command (`origin` names the source).
+DriveCommand FromMessage(const agvcal::drive_command_t& message, const RobotDescription& robot,
+                         const std::string& origin);
+
+// Encodes any lcm-gen message into bytes.
+template <typename Message>
+std::vector<uint8_t> Encode(const Message& message) {
+  std::vector<uint8_t> bytes(message.getEncodedSize());
+  message.encode(bytes.data(), 0, static_cast<int>(bytes.size()));
+  return bytes;
+}
+
+// Decodes bytes into a message; false if they are not a valid `Message`.
+template <typename Message>
+bool Decode(const void* data, int size, Message* message) {
+  return message->decode(data, 0, size) == size;
+}
+
+}  // namespace calib

@@ -1,0 +1,40 @@
+// agvcal: the offline front end (spec/cli.md). Each sub-command runs the same
+// libcalib code as the live processes, on files, as fast as the machine allows.
+#include <iostream>
+#include <map>
+#include <string>
+
+#include "calib/errors.h"
+#include "commands.h"
+
+namespace {
+
+const char* kUsage = R"(usage: agvcal COMMAND [ARGS] [--help]
+
+Commands:
+  simulate SIM.yaml OUT.log   write a simulated recording (commander + simulator, offline)
+  info LOG                    channels, message counts, rates and time span of a recording
+Run 'agvcal COMMAND --help' for a command's options.
+
+Exit status: 0 success, 2 unusable input (names the file, place and problem),
+3 the data cannot determine the answer, 1 internal error.
+)";
+
+int Run(int argc, char** argv) {
+  if (argc < 2 || std::string(argv[1]) == "--help" || std::string(argv[1]) == "-h") {
+    (argc < 2 ? std::cerr : std::cout) << kUsage;
+    return argc < 2 ? calib::kExitBadInput : calib::kExitOk;
+  }
+  static const std::map<std::string, int (*)(int, char**)> kCommands{
+      {"simulate", agvcal_cli::Simulate},
+      {"info", agvcal_cli::Info},
+  };
+  const auto it = kCommands.find(argv[1]);
+  if (it == kCommands.end())
+    throw calib::InputError("command line", argv[1], "unknown command (see agvcal --help)");
+  return it->second(argc, argv);
+}
+
+}  // namespace
+
+int main(int argc, char** argv) { return calib::RunMain("agvcal", Run, argc, argv); }

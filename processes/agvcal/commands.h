@@ -1,0 +1,10 @@
+#pragma once
+// Sub-commands of the agvcal front end; each takes the full argv (argv[1] is
+// the command name) and returns the exit status.
+
+namespace agvcal_cli {
+
+int Simulate(int argc, char** argv);
+int Info(int argc, char** argv);
+
+}  // namespace agvcal_cli

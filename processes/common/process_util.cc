@@ -1,0 +1,97 @@
+#include "common/process_util.h"
+
+#include <chrono>
+#include <csignal>
+#include <cstdlib>
+#include <unistd.h>
+
+#include "agvcal/heartbeat_t.hpp"
+#include "calib/errors.h"
+#include "calib/messages.h"
+
+namespace agvcal_process {
+
+std::atomic<bool> g_stop_requested{false};
+
+namespace {
+void OnStopSignal(int) { g_stop_requested = true; }
+}  // namespace
+
+void InstallStopHandlers() {
+  struct sigaction action {};
+  action.sa_handler = OnStopSignal;
+  sigemptyset(&action.sa_mask);
+  sigaction(SIGINT, &action, nullptr);
+  sigaction(SIGTERM, &action, nullptr);
+}
+
+void RequireGoodBus(lcm::LCM& lcm, const std::string& url) {
+  if (!lcm.good()) {
+    const char* env = std::getenv("LCM_DEFAULT_URL");
+    const std::string shown = !url.empty() ? url : env ? env : "LCM default URL";
+    throw calib::InputError(shown, "", "cannot open the LCM bus (network down, no multicast route?)");
+  }
+}
+
+int64_t WallMicros() {
+  return std::chrono::duration_cast<std::chrono::microseconds>(
+             std::chrono::system_clock::now().time_since_epoch())
+      .count();
+}
+
+void Heartbeat::Beat(const std::string& state, bool force) {
+  const int64_t now = WallMicros();
+  if (!force && now - last_ < 1000000) return;
+  last_ = now;
+  agvcal::heartbeat_t msg;
+  msg.utime = now;
+  msg.process = process_;
+  msg.pid = static_cast<int32_t>(getpid());
+  msg.state = state;
+  lcm_->publish(calib::kHeartbeatChannel, &msg);
+}
+
+std::string Args::Get(const std::string& key, const std::string& fallback) const {
+  auto it = options.find(key);
+  return it == options.end() ? fallback : it->second;
+}
+
+double Args::GetDouble(const std::string& key, double fallback) const {
+  auto it = options.find(key);
+  if (it == options.end()) return fallback;
+  char* end = nullptr;
+  const double v = std::strtod(it->second.c_str(), &end);
+  if (it->second.empty() || *end != '\0')
+    throw calib::InputError("command line", key, "expected a number, got '" + it->second + "'");
+  return v;
+}
+
+Args ParseArgs(int argc, char** argv, int first, const std::vector<std::string>& with_value,
+               const std::vector<std::string>& flags) {
+  auto contains = [](const std::vector<std::string>& v, const std::string& s) {
+    for (const auto& x : v)
+      if (x == s) return true;
+    return false;
+  };
+  Args args;
+  for (int i = first; i < argc; ++i) {
+    const std::string a = argv[i];
+    if (a == "--help" || a == "-h") {
+      args.options["--help"] = "1";
+    } else if (a.rfind("--", 0) == 0) {
+      if (contains(with_value, a)) {
+        if (i + 1 >= argc) throw calib::InputError("command line", a, "needs a value");
+        args.options[a] = argv[++i];
+      } else if (contains(flags, a)) {
+        args.options[a] = "1";
+      } else {
+        throw calib::InputError("command line", a, "unknown option (see --help)");
+      }
+    } else {
+      args.positional.push_back(a);
+    }
+  }
+  return args;
+}
+
+}  // namespace agvcal_process

@@ -1,0 +1,70 @@
+#pragma once
+// What every agvcal process needs around libcalib: publishing encoded
+// messages on the bus, heartbeats, a stop flag set by SIGINT/SIGTERM, and a
+// small command-line reader. Nothing here computes.
+
+#include <lcm/lcm-cpp.hpp>
+
+#include <atomic>
+#include <cstdint>
+#include <map>
+#include <string>
+#include <vector>
+
+#include "calib/recording.h"
+
+namespace agvcal_process {
+
+// Publishes encoded messages on an LCM bus (the simulator's live output).
+class LcmSink : public calib::MessageSink {
+ public:
+  explicit LcmSink(lcm::LCM* lcm) : lcm_(lcm) {}
+  void Publish(const std::string& channel, int64_t utime,
+               const std::vector<uint8_t>& data) override {
+    lcm_->publish(channel, data.data(), static_cast<unsigned int>(data.size()));
+  }
+
+ private:
+  lcm::LCM* lcm_;
+};
+
+// Throws calib::InputError naming the URL if the bus did not open. `url` is
+// the --lcm-url given ("" = LCM_DEFAULT_URL or LCM's default).
+void RequireGoodBus(lcm::LCM& lcm, const std::string& url);
+
+// Set by SIGINT or SIGTERM once InstallStopHandlers() has run.
+extern std::atomic<bool> g_stop_requested;
+void InstallStopHandlers();
+
+// Wall-clock microseconds (heartbeats and pacing only; data carry robot time).
+int64_t WallMicros();
+
+// Publishes agvcal::heartbeat_t on HEARTBEAT at most once per second.
+class Heartbeat {
+ public:
+  Heartbeat(lcm::LCM* lcm, std::string process) : lcm_(lcm), process_(std::move(process)) {}
+  void Beat(const std::string& state, bool force = false);
+
+ private:
+  lcm::LCM* lcm_;
+  std::string process_;
+  int64_t last_ = 0;
+};
+
+// Command line: positional arguments and --key value / --flag options.
+// Unknown options are errors (exit 2) naming the option.
+struct Args {
+  std::vector<std::string> positional;
+  std::map<std::string, std::string> options;  // "--speed" -> "2"; flags -> "1"
+  bool Has(const std::string& key) const { return options.count(key) > 0; }
+  std::string Get(const std::string& key, const std::string& fallback) const;
+  double GetDouble(const std::string& key, double fallback) const;
+};
+
+// `with_value` lists options that take a value, `flags` those that do not.
+// --help is always a flag. Throws calib::InputError for an unknown option or a
+// missing value.
+Args ParseArgs(int argc, char** argv, int first, const std::vector<std::string>& with_value,
+               const std::vector<std::string>& flags);
+
+}  // namespace agvcal_process
