@@ -38,7 +38,8 @@ Hit BruteForce(const World& world, const Eigen::Vector3d& o, const Eigen::Vector
     const WallSegment& s = segments[i];
     const Eigen::Vector2d e = s.b - s.a, w = s.a - o.head<2>();
     const double denom = d.x() * e.y() - d.y() * e.x();
-    if (denom == 0.0) continue;
+    // Grazing rays (within 1e-12 rad of the wall's direction) miss it.
+    if (std::abs(denom) <= 1e-12 * d.head<2>().norm() * e.norm()) continue;
     const double t = (w.x() * e.y() - w.y() * e.x()) / denom;
     const double u = (w.x() * d.y() - w.y() * d.x()) / denom;
     if (t < 0.0 || u < 0.0 || u > 1.0 || t >= best.t) continue;
@@ -170,6 +171,46 @@ TEST(WorldRay2dTest, GridEqualsBruteForceInWarehouse) {
     }
   }
   EXPECT_GT(hits, 10000);
+}
+
+// The grid's risky cases: rays along the axes (direction components exactly
+// or nearly zero) and rays aimed exactly at segment endpoints (corners).
+TEST(WorldRay2dTest, GridEqualsBruteForceOnAxesAndCorners) {
+  const World world = World::Load("warehouse");
+  auto expect_same = [&](const Eigen::Vector2d& o, double a) {
+    const double expected = BruteForce2d(world, o, a, 30.0).t;
+    const double got = world.CastRay2d(o, a, 30.0);
+    if (expected == kNoHit) {
+      EXPECT_EQ(got, kNoHit) << "from " << o.transpose() << " at " << a;
+    } else {
+      EXPECT_NEAR(got, expected, 1e-9) << "from " << o.transpose() << " at " << a;
+    }
+  };
+  for (double x = -23; x <= 23; x += 0.5) {
+    for (double y = -18; y <= 18; y += 0.5) {
+      for (int k = 0; k < 8; ++k) expect_same({x, y}, k * M_PI / 4);
+    }
+  }
+  for (const WallSegment& s : world.segments()) {
+    for (const Eigen::Vector2d& o : {Eigen::Vector2d(0, 0), Eigen::Vector2d(-6.5, 4.25)}) {
+      const Eigen::Vector2d d = s.a - o;
+      expect_same(o, std::atan2(d.y(), d.x()));
+    }
+  }
+  // 3D rays with exactly zero horizontal components.
+  for (double x = -23; x <= 23; x += 0.5) {
+    for (const Eigen::Vector3d& d : {Eigen::Vector3d(1, 0, 0), Eigen::Vector3d(0, -1, 0),
+                                     Eigen::Vector3d(0, 0.8, 0.6), Eigen::Vector3d(0, 0, -1)}) {
+      const Eigen::Vector3d o(x, 0.25 * x, 1.0);
+      const double expected = BruteForce(world, o, d, 30.0, true).t;
+      const double got = world.CastRay3d(o, d, 30.0);
+      if (expected == kNoHit) {
+        EXPECT_EQ(got, kNoHit) << "from " << o.transpose() << " along " << d.transpose();
+      } else {
+        EXPECT_NEAR(got, expected, 1e-9) << "from " << o.transpose() << " along " << d.transpose();
+      }
+    }
+  }
 }
 
 TEST(WorldRay3dTest, GridEqualsBruteForceInWarehouse) {

@@ -620,8 +620,8 @@ Trajectory MakeTricycle(const Limits& lim, const std::string& name) {
     AddStraightSteered(&s, 1, 0.5 * lim.max_speed, 4.0);
   } else if (name == "demo") {
     const double a = ArcAngles(lim, {0.4})[0];
-    AddArcThereAndBack(&s, lim, a, 1.5);
-    AddArcThereAndBack(&s, lim, -a, 1.5);
+    AddArcThereAndBack(&s, lim, a, 1.2);
+    AddArcThereAndBack(&s, lim, -a, 1.2);
     AddStraightSteered(&s, 1, lim.max_speed, 1.5);
   } else if (name == "straight") {
     AddStraightSteered(&s, 1, lim.max_speed, 3.0);
@@ -667,8 +667,8 @@ Trajectory MakeDualSteer(const RobotDescription& robot, const std::string& name)
   const std::vector<double> angles = ArcAngles(lim, {0.5, 1.0});
   if (name == "default") {
     for (double a : angles) {
-      AddThreeSegment(&s, lim, a, 2.0);
-      AddThreeSegment(&s, lim, -a, 2.0);
+      AddThreeSegment(&s, lim, a, 1.8);
+      AddThreeSegment(&s, lim, -a, 1.8);
     }
     const double c = ArcAngles(lim, {0.4})[0];
     // Crab runs: both wheels alike (a pure translation unless the wheels line up with it).

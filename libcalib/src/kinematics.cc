@@ -200,7 +200,9 @@ double Get(const std::map<std::string, double>& params, DriveType type, const st
 }
 
 void Require(bool ok, DriveType type, const std::string& problem) {
-  if (!ok) throw std::invalid_argument(std::string("drive model ") + DriveTypeName(type) + ": " + problem);
+  if (!ok) {
+    throw std::invalid_argument(std::string("drive model ") + DriveTypeName(type) + ": " + problem);
+  }
 }
 
 }  // namespace

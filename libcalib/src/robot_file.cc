@@ -4,19 +4,15 @@
 #include <yaml-cpp/yaml.h>
 
 #include <algorithm>
-#include <cerrno>
 #include <cmath>
-#include <cstring>
-#include <filesystem>
-#include <fstream>
 #include <map>
 #include <optional>
-#include <sstream>
 #include <string>
 #include <vector>
 
 #include "calib/errors.h"
 #include "calib/robot.h"
+#include "yaml_checked.h"
 
 namespace calib {
 namespace {
@@ -24,193 +20,18 @@ namespace {
 constexpr double kHalfPi = 1.57079632679489661923;
 constexpr double kPi = 3.14159265358979323846;
 
-int LineOf(const YAML::Mark& mark) { return mark.is_null() ? 0 : mark.line + 1; }
-
-std::string Join(const std::vector<std::string>& items, const std::string& last = " and ") {
-  std::string out;
-  for (size_t i = 0; i < items.size(); ++i) {
-    if (i > 0) out += (i + 1 == items.size()) ? last : ", ";
-    out += items[i];
-  }
-  return out;
-}
-
-size_t EditDistance(const std::string& a, const std::string& b) {
-  std::vector<size_t> row(b.size() + 1);
-  for (size_t j = 0; j <= b.size(); ++j) row[j] = j;
-  for (size_t i = 1; i <= a.size(); ++i) {
-    size_t diagonal = row[0];
-    row[0] = i;
-    for (size_t j = 1; j <= b.size(); ++j) {
-      const size_t above = row[j];
-      const size_t substitute = diagonal + (a[i - 1] == b[j - 1] ? 0 : 1);
-      row[j] = std::min({above + 1, row[j - 1] + 1, substitute});
-      diagonal = above;
-    }
-  }
-  return row[b.size()];
-}
-
-// The closest candidate if it is close enough to be a likely typo, else "".
-std::string Suggest(const std::string& word, const std::vector<std::string>& candidates) {
-  std::string best;
-  size_t best_distance = std::string::npos;
-  for (const auto& candidate : candidates) {
-    const size_t d = EditDistance(word, candidate);
-    if (d < best_distance) best_distance = d, best = candidate;
-  }
-  const size_t limit = std::max<size_t>(2, std::max(word.size(), best.size()) / 3);
-  return best_distance <= limit ? best : std::string();
-}
-
-std::string Describe(const YAML::Node& node) {
-  switch (node.Type()) {
-    case YAML::NodeType::Null: return "nothing";
-    case YAML::NodeType::Scalar: return "'" + node.Scalar() + "'";
-    case YAML::NodeType::Sequence: return "a list";
-    case YAML::NodeType::Map: return "a map";
-    case YAML::NodeType::Undefined: break;
-  }
-  return "nothing";
-}
-
-// One map entry: its full key path, the line of its key and its value.
-struct Field {
-  std::string path;
-  int line = 0;
-  YAML::Node value;
-};
-
-// Throws InputError for `origin`.
-class Reporter {
- public:
-  explicit Reporter(std::string origin) : origin_(std::move(origin)) {}
-
-  [[noreturn]] void Fail(int line, const std::string& path, const std::string& problem) const {
-    std::string place;
-    if (line > 0) place = "line " + std::to_string(line);
-    if (!path.empty()) place += (place.empty() ? "" : ", ") + std::string("key ") + path;
-    throw InputError(origin_, place, problem);
-  }
-  [[noreturn]] void Fail(const Field& field, const std::string& problem) const {
-    Fail(field.line, field.path, problem);
-  }
-
- private:
-  std::string origin_;
-};
-
-// A YAML map whose keys were checked against the allowed ones on construction:
-// scalar, not repeated, known (with a "did you mean" for a likely typo).
-class CheckedMap {
- public:
-  CheckedMap(const Reporter& reporter, const Field& field, const std::vector<std::string>& allowed,
-             const std::string& unknown_hint = "")
-      : reporter_(reporter), path_(field.path), line_(field.line) {
-    if (!field.value.IsMap()) {
-      reporter.Fail(field, "expected a map of keys, got " + Describe(field.value));
-    }
-    for (const auto& entry : field.value) {
-      const YAML::Node& key_node = entry.first;
-      const int line = LineOf(key_node.Mark()) > 0 ? LineOf(key_node.Mark()) : line_;
-      if (!key_node.IsScalar()) {
-        reporter.Fail(line, path_, "a key must be a plain name, got " + Describe(key_node));
-      }
-      const std::string key = key_node.Scalar();
-      const std::string path = path_.empty() ? key : path_ + "." + key;
-      if (std::find(allowed.begin(), allowed.end(), key) == allowed.end()) {
-        std::string problem = "unknown key";
-        const std::string suggestion = Suggest(key, allowed);
-        if (!suggestion.empty()) {
-          problem += " (did you mean " + suggestion + "?)";
-        } else if (!unknown_hint.empty()) {
-          problem += " (" + unknown_hint + ")";
-        } else {
-          problem += " (expected " + Join(allowed) + ")";
-        }
-        reporter.Fail(line, path, problem);
-      }
-      const auto previous = fields_.find(key);
-      if (previous != fields_.end()) {
-        reporter.Fail(line, path,
-                      "duplicate key (first given on line " +
-                          std::to_string(previous->second.line) + ")");
-      }
-      fields_[key] = Field{path, line, entry.second};
-    }
-  }
-
-  const std::string& path() const { return path_; }
-  int line() const { return line_; }
-  bool Has(const std::string& key) const { return fields_.count(key) > 0; }
-
-  std::optional<Field> Find(const std::string& key) const {
-    const auto it = fields_.find(key);
-    if (it == fields_.end()) return std::nullopt;
-    return it->second;
-  }
-
-  Field Get(const std::string& key, const std::string& missing_hint = "") const {
-    const auto it = fields_.find(key);
-    if (it == fields_.end()) {
-      reporter_.Fail(line_, path_.empty() ? key : path_ + "." + key,
-                     "missing required key" + (missing_hint.empty() ? "" : " (" + missing_hint + ")"));
-    }
-    return it->second;
-  }
-
- private:
-  const Reporter& reporter_;
-  std::string path_;
-  int line_;
-  std::map<std::string, Field> fields_;
-};
-
-double ReadNumber(const Reporter& reporter, const Field& field) {
-  const YAML::Node& v = field.value;
-  if (!v.IsScalar()) reporter.Fail(field, "expected a number, got " + Describe(v));
-  if (v.Tag() == "!") reporter.Fail(field, "expected a number, got the quoted string " + Describe(v));
-  double value = 0.0;
-  try {
-    value = v.as<double>();
-  } catch (const YAML::Exception&) {
-    reporter.Fail(field, "expected a number, got " + Describe(v));
-  }
-  if (!std::isfinite(value)) reporter.Fail(field, "expected a finite number, got " + Describe(v));
-  return value;
-}
-
-std::string ReadString(const Reporter& reporter, const Field& field) {
-  const YAML::Node& v = field.value;
-  if (!v.IsScalar()) reporter.Fail(field, "expected a name, got " + Describe(v));
-  if (v.Scalar().empty()) reporter.Fail(field, "must not be empty");
-  return v.Scalar();
-}
-
-double ReadPositive(const Reporter& reporter, const Field& field) {
-  const double value = ReadNumber(reporter, field);
-  if (!(value > 0.0)) {
-    reporter.Fail(field, "must be > 0, got " + Describe(field.value));
-  }
-  return value;
-}
-
-// |value| <= bound, with `bound_text` naming the bound for the message.
-double ReadBounded(const Reporter& reporter, const Field& field, double bound,
-                   const std::string& bound_text) {
-  const double value = ReadNumber(reporter, field);
-  if (std::abs(value) > bound) {
-    reporter.Fail(field, "must be within ±" + bound_text + " rad, got " + Describe(field.value));
-  }
-  return value;
-}
-
-// Optional number: `fallback` when the key is absent.
-double NumberOr(const Reporter& reporter, const CheckedMap& map, const std::string& key,
-                double fallback) {
-  const auto field = map.Find(key);
-  return field ? ReadNumber(reporter, *field) : fallback;
-}
+using yaml::CheckedMap;
+using yaml::Describe;
+using yaml::Field;
+using yaml::Join;
+using yaml::LineOf;
+using yaml::NumberOr;
+using yaml::ReadBounded;
+using yaml::ReadNumber;
+using yaml::ReadPositive;
+using yaml::ReadString;
+using yaml::Reporter;
+using yaml::Suggest;
 
 std::string ChannelOr(const Reporter& reporter, const CheckedMap& map, const std::string& fallback) {
   const auto field = map.Find("channel");
@@ -404,16 +225,7 @@ RobotDescription ParseRobot(const std::string& yaml_text, const std::string& ori
 }
 
 RobotDescription LoadRobotFile(const std::string& path) {
-  std::error_code ec;
-  if (std::filesystem::is_directory(path, ec)) {
-    throw InputError(path, "", "cannot read robot file: is a directory");
-  }
-  std::ifstream in(path, std::ios::binary);
-  if (!in) throw InputError(path, "", std::string("cannot read robot file: ") + std::strerror(errno));
-  std::ostringstream text;
-  text << in.rdbuf();
-  if (in.bad()) throw InputError(path, "", std::string("cannot read robot file: ") + std::strerror(errno));
-  return ParseRobot(text.str(), path);
+  return ParseRobot(yaml::ReadTextFile(path, "robot file"), path);
 }
 
 }  // namespace calib

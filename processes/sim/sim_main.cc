@@ -14,6 +14,7 @@
 namespace {
 
 const char* kUsage = R"(usage: agvcal-sim SIM.yaml [--speed X] [--duration S] [--lcm-url URL]
+       agvcal-sim SIM.yaml --print-robot
 
 Runs the simulated robot of SIM.yaml (see config/sims/) live on the LCM bus:
 publishes WHEELS, SCAN, IMU, CLOUD, POSE and GROUND_TRUTH as configured and
@@ -21,6 +22,7 @@ follows DRIVE_CMD (the robot stops when a command's timeout expires).
   --speed X      simulated seconds per wall-clock second (default 1)
   --duration S   stop after S simulated seconds (default: until Ctrl-C)
   --lcm-url URL  LCM provider (default: $LCM_DEFAULT_URL or LCM's default)
+  --print-robot  print the path of the robot file SIM.yaml simulates, and exit
 Exit status: 0 stopped cleanly, 2 bad config or bus, 1 internal error.
 )";
 
@@ -45,7 +47,8 @@ class CommandListener {
 
 int Run(int argc, char** argv) {
   using namespace agvcal_process;
-  const Args args = ParseArgs(argc, argv, 1, {"--speed", "--duration", "--lcm-url"}, {});
+  const Args args = ParseArgs(argc, argv, 1, {"--speed", "--duration", "--lcm-url"},
+                              {"--print-robot"});
   if (args.Has("--help")) {
     std::cout << kUsage;
     return 0;
@@ -58,7 +61,12 @@ int Run(int argc, char** argv) {
   const double duration = args.GetDouble("--duration", 0.0);
   if (!(speed > 0)) throw calib::InputError("command line", "--speed", "must be > 0");
 
-  calib::Simulator sim(calib::LoadSimConfig(args.positional[0]));
+  calib::SimConfig config = calib::LoadSimConfig(args.positional[0]);
+  if (args.Has("--print-robot")) {
+    std::cout << config.robot.source_file << "\n";
+    return calib::kExitOk;
+  }
+  calib::Simulator sim(std::move(config));
   const std::string url = args.Get("--lcm-url", "");
   lcm::LCM lcm(url);
   RequireGoodBus(lcm, url);

@@ -3,6 +3,7 @@
 // lcmtypes/) and libcalib's plain data, and encoding helpers. No bus here.
 
 #include <cstdint>
+#include <exception>
 #include <string>
 #include <vector>
 
@@ -40,10 +41,15 @@ std::vector<uint8_t> Encode(const Message& message) {
   return bytes;
 }
 
-// Decodes bytes into a message; false if they are not a valid `Message`.
+// Decodes bytes into a message; false if they are not a valid `Message`
+// (lcm-gen's decoders can throw on corrupt lengths, e.g. of a string).
 template <typename Message>
 bool Decode(const void* data, int size, Message* message) {
-  return message->decode(data, 0, size) == size;
+  try {
+    return message->decode(data, 0, size) == size;
+  } catch (const std::exception&) {
+    return false;
+  }
 }
 
 }  // namespace calib

@@ -35,19 +35,26 @@ constexpr double kNoHit = std::numeric_limits<double>::infinity();
 
 class World {
  public:
+  // An empty world: only the floor.
   World() = default;
+  // Throws std::invalid_argument for a non-finite coordinate or height.
   explicit World(std::vector<WallSegment> segments);
 
   // Reads a world file; a name without '/' and without extension is looked
-  // up in the bundled config/worlds. Throws InputError naming file and line.
+  // up in the bundled config/worlds. Throws InputError naming file and line
+  // (an unknown bundled name lists the bundled ones).
   static World Load(const std::string& path_or_name);
+  // Parses world-file text; `origin` names it in errors. A text without any
+  // wall, box or pillar is an error (most likely the wrong file).
   static World Parse(const std::string& text, const std::string& origin);
 
   const std::vector<WallSegment>& segments() const { return segments_; }
 
   // Distance from `origin` along the horizontal direction `angle` (world
   // frame, rad) to the first wall face, kNoHit if none within max_range.
-  // The 2D lidar's scan plane is taken to be below every element's height.
+  // The 2D lidar's scan plane is taken to be below every element's height
+  // (low pallets are seen too). Faces have no thickness: a ray grazing a
+  // face (within 1e-12 rad of its direction) passes it.
   double CastRay2d(const Eigen::Vector2d& origin, double angle, double max_range) const;
 
   // Distance along the unit direction `dir` from `origin` (world frame) to the

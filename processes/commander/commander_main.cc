@@ -1,0 +1,246 @@
+// agvcal-commander: drives the excitation trajectory of a robot file on the
+// LCM bus. Its clock is the newest WHEELS time (robot clock); it publishes
+// DRIVE_CMD at a fixed rate of robot time, COMMANDER_STATUS with each command
+// and a HEARTBEAT each wall-clock second, and stops the robot when the wheel
+// states go quiet (wall clock), on SIGINT/SIGTERM and at the end.
+#include <lcm/lcm-cpp.hpp>
+
+#include <algorithm>
+#include <cmath>
+#include <iostream>
+#include <map>
+#include <optional>
+
+#include "agvcal/commander_status_t.hpp"
+#include "agvcal/drive_command_t.hpp"
+#include "agvcal/wheel_state_t.hpp"
+#include "calib/commander.h"
+#include "calib/errors.h"
+#include "calib/messages.h"
+#include "calib/robot.h"
+#include "common/process_util.h"
+
+namespace {
+
+const char* kUsage =
+    R"(usage: agvcal-commander ROBOT.yaml [--trajectory NAME] [--stale-timeout S] [--rate HZ]
+                        [--lcm-url URL]
+
+Drives the robot of ROBOT.yaml through an excitation trajectory within the
+limits of the robot file: publishes DRIVE_CMD, using the time of the newest
+WHEELS message as its clock, and COMMANDER_STATUS and HEARTBEAT.
+  --trajectory NAME   excitation trajectory (default "default"); per drive type:
+                        differential: default umbmark turns figure8 demo straight
+                        tricycle:     default demo straight
+                        dual_steer:   default three_segment demo straight
+  --stale-timeout S   wall-clock seconds without WHEELS after which the robot is
+                      told to stop (default 0.5); it resumes when they return
+  --rate HZ           commands per second of robot time (default 20)
+  --lcm-url URL       LCM provider (default: $LCM_DEFAULT_URL or LCM's default)
+Exit status: 0 trajectory finished or stopped by SIGINT/SIGTERM (a stop command
+is sent first), 2 bad robot file, trajectory or bus, 1 internal error.
+)";
+
+constexpr int kFinalStops = 5;  // stop commands sent after the trajectory ends
+
+// Keeps the newest wheel state's time; the first message's steering readings
+// seed the commander's first steering ramp.
+class WheelListener {
+ public:
+  void OnWheels(const lcm::ReceiveBuffer*, const std::string&, const agvcal::wheel_state_t* msg) {
+    // Called from C: copies only, nothing that throws past here.
+    fresh_ = true;
+    utime_ = msg->utime;
+    if (first_steer_.empty()) {
+      const size_t n = std::min({static_cast<size_t>(std::max(msg->num_wheels, 0)),
+                                 msg->name.size(), msg->steer.size()});
+      for (size_t i = 0; i < n; ++i) first_steer_[msg->name[i]] = msg->steer[i];
+    }
+  }
+  // True once per message received since the last call.
+  bool TakeFresh() {
+    const bool f = fresh_;
+    fresh_ = false;
+    return f;
+  }
+  int64_t utime() const { return utime_; }
+  const std::map<std::string, double>& first_steer() const { return first_steer_; }
+
+ private:
+  bool fresh_ = false;
+  int64_t utime_ = 0;
+  std::map<std::string, double> first_steer_;
+};
+
+// True steering angle of each wheel role from raw readings keyed by wheel name (0 where missing).
+std::vector<double> TrueSteer(const calib::RobotDescription& robot,
+                              const std::map<std::string, double>& raw) {
+  std::vector<double> out;
+  for (const std::string& role : calib::WheelRoles(robot.drive)) {
+    double offset = 0.0;
+    if (robot.drive == calib::DriveType::kTricycle) offset = robot.param("steer_offset");
+    if (robot.drive == calib::DriveType::kDualSteer && role == "a1")
+      offset = robot.param("a1_steer_offset");
+    const auto it = raw.find(robot.wheel_name(role));
+    const double angle = it == raw.end() || !std::isfinite(it->second) ? 0.0 : it->second - offset;
+    out.push_back(std::clamp(angle, -robot.limits.max_steer, robot.limits.max_steer));
+  }
+  return out;
+}
+
+const char* StateName(calib::CommanderState s) {
+  return s == calib::CommanderState::kFinished ? "finished" : "running";
+}
+
+int Run(int argc, char** argv) {
+  using namespace agvcal_process;
+  const Args args = ParseArgs(argc, argv, 1,
+                              {"--trajectory", "--stale-timeout", "--rate", "--lcm-url"}, {});
+  if (args.Has("--help")) {
+    std::cout << kUsage;
+    return calib::kExitOk;
+  }
+  if (args.positional.size() != 1) {
+    std::cerr << kUsage;
+    return calib::kExitBadInput;
+  }
+  const double stale_timeout_s = args.GetDouble("--stale-timeout", 0.5);
+  const double rate_hz = args.GetDouble("--rate", 20.0);
+  if (!(stale_timeout_s > 0)) throw calib::InputError("command line", "--stale-timeout", "must be > 0");
+  if (!(rate_hz > 0 && rate_hz <= 1000)) {
+    throw calib::InputError("command line", "--rate", "must be in (0, 1000]");
+  }
+  const std::string trajectory_name = args.Get("--trajectory", "default");
+
+  const calib::RobotDescription robot = calib::LoadRobotFile(args.positional[0]);
+  const calib::Trajectory trajectory = calib::MakeTrajectory(robot, trajectory_name);
+  calib::CommanderOptions options;
+  options.command_timeout_s = std::max(0.5, 3.0 / rate_hz);  // outlives a few command periods
+  const calib::Commander plan(robot, trajectory, options);  // validates before touching the bus
+
+  const std::string url = args.Get("--lcm-url", "");
+  lcm::LCM lcm(url);
+  RequireGoodBus(lcm, url);
+  WheelListener wheels;
+  lcm.subscribe(calib::kWheelsChannel, &WheelListener::OnWheels, &wheels);
+  Heartbeat heartbeat(&lcm, "commander");
+  InstallStopHandlers();
+
+  std::optional<calib::Commander> commander;
+  const int64_t period_us = std::max<int64_t>(1, std::llround(1e6 / rate_hz));
+  const int64_t stale_us = std::llround(stale_timeout_s * 1e6);
+  int64_t seq = 0;
+  int64_t last_utime = 0;         // newest wheel-state time (robot clock)
+  int64_t next_command_utime = 0;
+  int64_t last_wheels_wall = WallMicros();
+  int64_t last_stale_stop_wall = 0;
+  bool stale = false;
+  int final_stops = 0;
+
+  auto publish_command = [&](const calib::DriveCommand& command) {
+    const agvcal::drive_command_t msg = calib::ToMessage(command, robot, seq++);
+    lcm.publish(calib::kDriveCmdChannel, &msg);
+  };
+  auto publish_stop = [&]() {
+    calib::DriveCommand stop;
+    stop.mode = calib::DriveMode::kStop;
+    stop.utime = last_utime;
+    stop.timeout_s = options.command_timeout_s;
+    publish_command(stop);
+  };
+  auto publish_status = [&](const std::string& state) {
+    agvcal::commander_status_t msg;
+    msg.utime = last_utime;
+    msg.trajectory = trajectory_name;
+    const calib::CommanderStatus st =
+        commander ? commander->status() : calib::CommanderStatus{};
+    msg.segment = st.segment;
+    msg.num_segments = static_cast<int32_t>(trajectory.segments.size());
+    msg.segment_name = commander ? st.segment_description : "waiting for WHEELS";
+    msg.state = state;
+    lcm.publish(calib::kCommanderStatusChannel, &msg);
+  };
+  auto finish = [&](const std::string& state) {
+    publish_stop();
+    publish_status(state);
+    heartbeat.Beat(state, true /* force */);
+    return calib::kExitOk;
+  };
+
+  std::cerr << "agvcal-commander: " << robot.name << " (" << calib::DriveTypeName(robot.drive)
+            << "), trajectory '" << trajectory_name << "', " << trajectory.segments.size()
+            << " segments, about "
+            << std::lround(plan.nominal_duration_s())
+            << " s; waiting for WHEELS\n";
+
+  while (true) {
+    if (g_stop_requested) {
+      std::cerr << "agvcal-commander: stop requested, robot told to stop\n";
+      return finish("stopped");
+    }
+    const int64_t wall = WallMicros();
+    const int64_t until_stale = stale ? period_us : last_wheels_wall + stale_us - wall;
+    const int wait_ms = static_cast<int>(std::clamp<int64_t>(until_stale / 1000, 0, 100));
+    if (lcm.handleTimeout(wait_ms) < 0 && !g_stop_requested) {
+      throw std::runtime_error("receiving from the LCM bus failed");
+    }
+
+    if (wheels.TakeFresh()) {
+      last_wheels_wall = WallMicros();
+      const int64_t utime = wheels.utime();
+      if (commander && utime < last_utime) continue;  // older than what we have: ignore
+      last_utime = utime;
+      if (stale) {
+        stale = false;
+        std::cerr << "agvcal-commander: WHEELS back, resuming\n";
+      }
+      if (!commander) {
+        calib::CommanderOptions opts = options;
+        if (robot.drive != calib::DriveType::kDifferential)
+          opts.initial_steer = TrueSteer(robot, wheels.first_steer());
+        commander.emplace(robot, trajectory, opts);
+        next_command_utime = utime;
+      }
+      if (utime >= next_command_utime) {
+        calib::DriveCommand command = commander->Step(utime);
+        command.utime = utime;
+        publish_command(command);
+        const calib::CommanderStatus st = commander->status();
+        publish_status(StateName(st.state));
+        next_command_utime += period_us;
+        if (next_command_utime <= utime) next_command_utime = utime + period_us;
+        if (st.state == calib::CommanderState::kFinished && ++final_stops >= kFinalStops) {
+          std::cerr << "agvcal-commander: trajectory finished\n";
+          return finish("finished");
+        }
+      }
+    } else if (WallMicros() - last_wheels_wall > stale_us) {
+      if (!stale) {
+        stale = true;
+        if (commander) commander->Interrupt(last_utime);
+        std::cerr << "agvcal-commander: no WHEELS for " << stale_timeout_s
+                  << " s, robot told to stop\n";
+      }
+      if (WallMicros() - last_stale_stop_wall >= period_us) {
+        last_stale_stop_wall = WallMicros();
+        publish_stop();
+        publish_status("stale_inputs");
+      }
+      if (commander && commander->status().state == calib::CommanderState::kFinished) {
+        for (int k = 1; k < kFinalStops; ++k) publish_stop();
+        return finish("finished");
+      }
+    }
+
+    const calib::CommanderStatus st = commander ? commander->status() : calib::CommanderStatus{};
+    heartbeat.Beat(stale ? "stale_inputs"
+                   : !commander ? "waiting for WHEELS"
+                                : std::string(StateName(st.state)) + " segment " +
+                                      std::to_string(st.segment + 1) + "/" +
+                                      std::to_string(st.num_segments));
+  }
+}
+
+}  // namespace
+
+int main(int argc, char** argv) { return calib::RunMain("agvcal-commander", Run, argc, argv); }

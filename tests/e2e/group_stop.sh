@@ -1,0 +1,25 @@
+#!/usr/bin/env bash
+# The group stops as one: on Ctrl-C (SIGINT) the recording is complete and
+# readable and no process is left; when one process dies, the others stop and
+# the group reports it.
+source "$(dirname "$0")/common.sh" "$@"
+run_in_ns() {  # runs the group in its own namespace in the background, records its pid
+  scripts/netns-run scripts/agvcal-group --sim config/sims/diff_robot.yaml --trajectory default \
+    --speed 2 --log "$TMP/$1.log" >"$TMP/$1.out" 2>&1 &
+  group=$!
+  sleep 6
+}
+run_in_ns interrupted
+kill -INT "$group"; wait "$group"; code=$?
+[ "$code" -eq 130 ] && pass "Ctrl-C: group exits 130" || fail "Ctrl-C: group exited $code; $(tail -5 "$TMP/interrupted.out")"
+expect_status 0 "Ctrl-C: the recording is complete and decodes" "$AGVCAL" info "$TMP/interrupted.log"
+grep -q WHEELS "$TMP/stdout" && pass "Ctrl-C: recording has WHEELS" || fail "Ctrl-C: recording lacks WHEELS"
+no_orphans
+
+run_in_ns crashed
+pkill -KILL -f "$BUILD/agvcal-commander" && pass "commander killed" || fail "no commander to kill"
+wait "$group"; code=$?
+[ "$code" -eq 1 ] && pass "a dead process stops the group with exit 1" || fail "group exited $code after a crash"
+grep -q "commander exited" "$TMP/crashed.out" && pass "the group names the dead process" || fail "no message naming the commander: $(tail -3 "$TMP/crashed.out")"
+no_orphans
+finish

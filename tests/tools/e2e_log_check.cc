@@ -1,0 +1,140 @@
+// Checks a recording made by the live process group, for the end-to-end tests:
+//   e2e_log_check rates LOG CHANNEL=HZ...     every channel present at its rate (±10 %)
+//   e2e_log_check tracking LOG ROBOT.yaml     the true motion followed the commanded one
+//   e2e_log_check same LOG_A LOG_B            same messages (bytes) per channel, in order
+// Prints one line per check and exits 1 if any fails.
+#include <cmath>
+#include <iostream>
+#include <map>
+#include <string>
+#include <vector>
+
+#include "agvcal/drive_command_t.hpp"
+#include "agvcal/pose2d_t.hpp"
+#include "calib/errors.h"
+#include "calib/kinematics.h"
+#include "calib/log_summary.h"
+#include "calib/messages.h"
+#include "calib/recording.h"
+
+namespace {
+
+int failures = 0;
+void Check(bool ok, const std::string& what) {
+  std::cout << (ok ? "PASS " : "FAIL ") << what << "\n";
+  if (!ok) ++failures;
+}
+
+int Rates(int argc, char** argv) {
+  const calib::LogSummary summary = calib::SummarizeLog(argv[2]);
+  for (int i = 3; i < argc; ++i) {
+    const std::string spec = argv[i];
+    const std::string channel = spec.substr(0, spec.find('='));
+    const double expected = std::stod(spec.substr(spec.find('=') + 1));
+    const auto it = summary.channels.find(channel);
+    const double rate = it == summary.channels.end() ? 0.0 : it->second.rate_hz;
+    Check(std::abs(rate - expected) <= 0.1 * expected,
+          channel + " rate " + std::to_string(rate) + " Hz, expected " + std::to_string(expected));
+    if (it != summary.channels.end())
+      Check(it->second.out_of_order == 0 && it->second.duplicated == 0,
+            channel + " stamps strictly increasing");
+  }
+  return failures ? 1 : 0;
+}
+
+// Commanded body twist over time (nominal model, as the robot's controller
+// sees it) against the true twist from GROUND_TRUTH differences.
+int Tracking(const std::string& log, const std::string& robot_file) {
+  const calib::RobotDescription robot = calib::LoadRobotFile(robot_file);
+  const auto model = calib::MakeDriveModel(robot);
+  std::vector<std::pair<int64_t, calib::Twist2>> commands;
+  std::vector<agvcal::pose2d_t> truth;
+  calib::LogReader reader(log);
+  calib::LogEvent e;
+  while (reader.Next(&e)) {
+    if (e.channel == calib::kDriveCmdChannel) {
+      agvcal::drive_command_t m;
+      calib::Decode(e.data.data(), int(e.data.size()), &m);
+      const calib::DriveCommand c = calib::FromMessage(m, robot, log);
+      calib::Twist2 t;
+      if (c.mode == calib::DriveMode::kTwist) t = c.twist;
+      if (c.mode == calib::DriveMode::kWheels) t = model->Forward(c.wheels);
+      commands.push_back({m.utime, t});
+    } else if (e.channel == calib::kGroundTruthChannel) {
+      agvcal::pose2d_t m;
+      calib::Decode(e.data.data(), int(e.data.size()), &m);
+      truth.push_back(m);
+    }
+  }
+  Check(commands.size() > 100, "DRIVE_CMD recorded (" + std::to_string(commands.size()) + ")");
+  Check(truth.size() > 100, "GROUND_TRUTH recorded (" + std::to_string(truth.size()) + ")");
+  if (failures) return 1;
+  // The command in force at each ground-truth sample (latest one issued before it).
+  std::vector<calib::Twist2> commanded(truth.size());
+  for (size_t i = 0, k = 0; i < truth.size(); ++i) {
+    while (k < commands.size() && commands[k].first <= truth[i].utime) ++k;
+    if (k > 0) commanded[i] = commands[k - 1].second;
+  }
+  double sum_v = 0, sum_w = 0, path = 0, commanded_path = 0;
+  int n = 0;
+  const int stride = 10;  // compare mean velocities over 0.1 s windows at 100 Hz
+  for (size_t i = stride; i < truth.size(); i += stride) {
+    const auto& a = truth[i - stride];
+    const auto& b = truth[i];
+    if (a.utime < commands.front().first) continue;
+    const calib::Pose2 d = calib::Between({a.x, a.y, a.theta}, {b.x, b.y, b.theta});
+    const double dt = (b.utime - a.utime) * 1e-6;
+    calib::Twist2 mean;
+    for (size_t j = i - stride; j < i; ++j) {
+      mean.vx += commanded[j].vx / stride;
+      mean.omega += commanded[j].omega / stride;
+    }
+    sum_v += std::pow(d.x / dt - mean.vx, 2);
+    sum_w += std::pow(d.theta / dt - mean.omega, 2);
+    ++n;
+    path += std::hypot(d.x, d.y);
+    commanded_path += std::abs(mean.vx) * dt;
+  }
+  const double rms_v = std::sqrt(sum_v / std::max(n, 1));
+  const double rms_w = std::sqrt(sum_w / std::max(n, 1));
+  Check(n > 100, "compared " + std::to_string(n) + " velocity samples");
+  Check(path > 2.0, "the robot moved " + std::to_string(path) + " m");
+  Check(std::abs(path - commanded_path) < 0.05 * commanded_path,
+        "true path " + std::to_string(path) + " m vs commanded " + std::to_string(commanded_path) + " m (5 %)");
+  Check(rms_v < 0.03, "forward speed follows the command: rms error " + std::to_string(rms_v) + " m/s (< 0.03)");
+  Check(rms_w < 0.03, "turn rate follows the command: rms error " + std::to_string(rms_w) + " rad/s (< 0.03)");
+  return failures ? 1 : 0;
+}
+
+int Same(const std::string& a, const std::string& b) {
+  auto read = [](const std::string& path) {
+    std::map<std::string, std::vector<std::vector<uint8_t>>> by_channel;
+    calib::LogReader reader(path);
+    calib::LogEvent e;
+    while (reader.Next(&e)) by_channel[e.channel].push_back(e.data);
+    return by_channel;
+  };
+  const auto x = read(a), y = read(b);
+  for (const auto& [channel, messages] : x) {
+    const auto it = y.find(channel);
+    const size_t other = it == y.end() ? 0 : it->second.size();
+    Check(other == messages.size(), channel + ": " + std::to_string(messages.size()) + " vs " +
+                                        std::to_string(other) + " messages");
+    if (other == messages.size()) Check(it->second == messages, channel + ": identical bytes");
+  }
+  Check(x.size() == y.size(), "same channels");
+  return failures ? 1 : 0;
+}
+
+int Run(int argc, char** argv) {
+  const std::string mode = argc > 1 ? argv[1] : "";
+  if (mode == "rates" && argc >= 4) return Rates(argc, argv);
+  if (mode == "tracking" && argc == 4) return Tracking(argv[2], argv[3]);
+  if (mode == "same" && argc == 4) return Same(argv[2], argv[3]);
+  std::cerr << "usage: e2e_log_check rates LOG CHANNEL=HZ... | tracking LOG ROBOT.yaml | same A B\n";
+  return 2;
+}
+
+}  // namespace
+
+int main(int argc, char** argv) { return calib::RunMain("e2e_log_check", Run, argc, argv); }
