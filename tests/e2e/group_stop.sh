@@ -17,7 +17,7 @@ grep -q WHEELS "$TMP/stdout" && pass "Ctrl-C: recording has WHEELS" || fail "Ctr
 no_orphans
 
 run_in_ns crashed
-pkill -KILL -f "$BUILD/agvcal-commander" && pass "commander killed" || fail "no commander to kill"
+pkill -KILL -P "$group" -f agvcal-commander && pass "commander killed" || fail "no commander to kill"
 wait "$group"; code=$?
 [ "$code" -eq 1 ] && pass "a dead process stops the group with exit 1" || fail "group exited $code after a crash"
 grep -q "commander exited" "$TMP/crashed.out" && pass "the group names the dead process" || fail "no message naming the commander: $(tail -3 "$TMP/crashed.out")"
