@@ -1,11 +1,11 @@
 #include "calib/world.h"
 
+#include <gtest/gtest.h>
+
+#include <Eigen/Eigenvalues>
 #include <cmath>
 #include <random>
 #include <string>
-
-#include <Eigen/Eigenvalues>
-#include <gtest/gtest.h>
 
 #include "calib/errors.h"
 
@@ -133,7 +133,7 @@ TEST(WorldRay2dTest, SquareRoomAnalyticDistances) {
 
 TEST(WorldRay2dTest, MissesReturnNoHit) {
   const World room = SquareRoom();
-  EXPECT_EQ(room.CastRay2d({1, 2}, 0.0, 3.9), kNoHit);      // wall at 4 m, beyond range
+  EXPECT_EQ(room.CastRay2d({1, 2}, 0.0, 3.9), kNoHit);        // wall at 4 m, beyond range
   EXPECT_NEAR(room.CastRay2d({1, 2}, 0.0, 4.0), 4.0, 1e-12);  // exactly at range: a hit
   // From outside the room, looking away from it.
   EXPECT_EQ(room.CastRay2d({8, 0}, 0.0, 100.0), kNoHit);
@@ -239,8 +239,8 @@ TEST(WorldRay3dTest, FloorWallsAndLowBoxes) {
       "room");
   const double h = 2.0;
   // Floor: distance h / -dir.z.
-  for (const Eigen::Vector3d& d : {Eigen::Vector3d(0, 0, -1), Eigen::Vector3d(0.3, -0.4, -0.5),
-                                   Eigen::Vector3d(-1, -1, -1)}) {
+  for (const Eigen::Vector3d& d :
+       {Eigen::Vector3d(0, 0, -1), Eigen::Vector3d(0.3, -0.4, -0.5), Eigen::Vector3d(-1, -1, -1)}) {
     const Eigen::Vector3d u = d.normalized();
     const Eigen::Vector3d o(0, 0, h);
     const double t = room.CastRay3d(o, u, 100.0);

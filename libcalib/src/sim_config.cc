@@ -1,10 +1,15 @@
 // Reading simulation configs (format: calib/simulator.h). Every key must be
 // known, so a typo in an effect or a sensor setting fails loudly.
 #include <algorithm>
+#include <cmath>
 #include <filesystem>
+#include <optional>
+#include <sstream>
+#include <string>
 
 #include "calib/errors.h"
 #include "calib/simulator.h"
+#include "calib/world.h"
 #include "yaml_checked.h"
 
 namespace calib {
@@ -18,10 +23,31 @@ using yaml::ReadPositive;
 using yaml::ReadString;
 using yaml::Reporter;
 
+// A number for a message, with up to 6 significant digits.
+std::string Format(double v) {
+  std::ostringstream out;
+  out << v;
+  return out.str();
+}
+
 double RateOr(const Reporter& r, const CheckedMap& map, double fallback) {
   const double rate = NumberOr(r, map, "rate", fallback);
   if (rate < 0) r.Fail(*map.Find("rate"), "a rate must be >= 0 (0 turns the sensor off)");
+  // A sensor samples at most once per physics step; a higher rate would be
+  // emitted slower than configured (with noise scaled for the configured rate).
+  const double physics_rate = SimConfig().physics_rate_hz;
+  if (rate > physics_rate)
+    r.Fail(*map.Find("rate"), "a rate must be at most the simulator's physics rate (" +
+                                  Format(physics_rate) + " Hz)");
   return rate;
+}
+
+// A count (beams, ticks, rings): a whole number >= 1.
+int ReadCount(const Reporter& r, const Field& f) {
+  const double v = ReadPositive(r, f);
+  if (v != std::floor(v) || v > 1e9)
+    r.Fail(f, "must be a whole number >= 1, got " + yaml::Describe(f.value));
+  return static_cast<int>(v);
 }
 
 double NonNegativeOr(const Reporter& r, const CheckedMap& map, const std::string& key,
@@ -78,7 +104,7 @@ void ReadSensors(const Reporter& r, const Field& field, SimConfig* cfg) {
                                "steer_noise", "velocity_noise"});
     WheelSensorConfig& w = cfg->wheels;
     w.rate_hz = RateOr(r, m, w.rate_hz);
-    if (const auto t = m.Find("ticks_per_rev")) w.ticks_per_rev = static_cast<int>(ReadPositive(r, *t));
+    if (const auto t = m.Find("ticks_per_rev")) w.ticks_per_rev = ReadCount(r, *t);
     w.tick_noise = NonNegativeOr(r, m, "tick_noise", w.tick_noise);
     w.steer_resolution_rad = NonNegativeOr(r, m, "steer_resolution", w.steer_resolution_rad);
     w.steer_noise_rad = NonNegativeOr(r, m, "steer_noise", w.steer_noise_rad);
@@ -89,12 +115,13 @@ void ReadSensors(const Reporter& r, const Field& field, SimConfig* cfg) {
                                "dropout"});
     Lidar2dSensorConfig& l = cfg->lidar2d;
     l.rate_hz = RateOr(r, m, l.rate_hz);
-    if (const auto b = m.Find("beams")) l.beams = static_cast<int>(ReadPositive(r, *b));
+    if (const auto b = m.Find("beams")) l.beams = ReadCount(r, *b);
     if (const auto v = m.Find("fov")) l.fov_rad = ReadPositive(r, *v);
     l.range_min = NonNegativeOr(r, m, "range_min", l.range_min);
     if (const auto v = m.Find("range_max")) l.range_max = ReadPositive(r, *v);
     l.range_noise = NonNegativeOr(r, m, "range_noise", l.range_noise);
     l.dropout = NonNegativeOr(r, m, "dropout", l.dropout);
+    if (l.dropout > 1) r.Fail(*m.Find("dropout"), "a probability must be <= 1");
   }
   if (const auto f = top.Find("imu")) {
     const CheckedMap m(r, *f, {"rate", "gyro_noise_density", "gyro_bias", "accel_noise_density",
@@ -111,10 +138,10 @@ void ReadSensors(const Reporter& r, const Field& field, SimConfig* cfg) {
                                "points_per_ring", "range_max", "range_noise", "body"});
     Lidar3dSensorConfig& l = cfg->lidar3d;
     l.rate_hz = RateOr(r, m, l.rate_hz);
-    if (const auto v = m.Find("rings")) l.rings = static_cast<int>(ReadPositive(r, *v));
+    if (const auto v = m.Find("rings")) l.rings = ReadCount(r, *v);
     l.elevation_min_rad = NumberOr(r, m, "elevation_min", l.elevation_min_rad);
     l.elevation_max_rad = NumberOr(r, m, "elevation_max", l.elevation_max_rad);
-    if (const auto v = m.Find("points_per_ring")) l.points_per_ring = static_cast<int>(ReadPositive(r, *v));
+    if (const auto v = m.Find("points_per_ring")) l.points_per_ring = ReadCount(r, *v);
     if (const auto v = m.Find("range_max")) l.range_max = ReadPositive(r, *v);
     l.range_noise = NonNegativeOr(r, m, "range_noise", l.range_noise);
     if (const auto b = m.Find("body")) {
@@ -155,13 +182,37 @@ void ReadEffects(const Reporter& r, const Field& field, SimConfig* cfg) {
   auto require_steering = [&](const Field& f) {
     if (!steered) r.Fail(f, "a differential drive has no steering");
   };
+  // The steering effects share one wheel selection (SimEffects::steering_wheel):
+  // a second one that names other wheels would silently override the first.
+  std::optional<Field> steering_wheel_from;
+  auto steering_wheel = [&](const CheckedMap& m, const Field& f) {
+    const std::string role = wheel(m);
+    if (steering_wheel_from && role != fx.steering_wheel) {
+      auto describe = [](const std::string& w) {
+        return w.empty() ? std::string("every steered wheel") : "wheel " + w;
+      };
+      r.Fail(f, "steering effects must act on the same wheels: this one acts on " +
+                    describe(role) + ", " + steering_wheel_from->path + " (line " +
+                    std::to_string(steering_wheel_from->line) + ") on " +
+                    describe(fx.steering_wheel));
+    }
+    steering_wheel_from = f;
+    fx.steering_wheel = role;
+  };
   if (const auto f = top.Find("time_offset")) {
     const CheckedMap m(r, *f, {"offset_s"});
     fx.time_offset_s = ReadNumber(r, m.Get("offset_s"));
   }
   if (const auto f = top.Find("scan_distortion")) {
     const CheckedMap m(r, *f, {"scan_period_s"});
-    fx.scan_distortion_period_s = ReadPositive(r, m.Get("scan_period_s"));
+    const Field period = m.Get("scan_period_s");
+    fx.scan_distortion_period_s = ReadPositive(r, period);
+    // The simulator takes a scan's beams before it emits the scan, one scan
+    // period after its start; beams spread beyond that would overlap the next scan.
+    if (cfg->robot.lidar2d && cfg->lidar2d.rate_hz > 0 &&
+        *fx.scan_distortion_period_s > 1.0 / cfg->lidar2d.rate_hz + 1e-9)
+      r.Fail(period, "must not exceed the time between scans (1 / sensors.lidar2d.rate = " +
+                         Format(1.0 / cfg->lidar2d.rate_hz) + " s)");
   }
   if (const auto f = top.Find("longitudinal_slip")) {
     const CheckedMap m(r, *f, {"slip_per_accel", "wheel"});
@@ -176,13 +227,13 @@ void ReadEffects(const Reporter& r, const Field& field, SimConfig* cfg) {
     require_steering(*f);
     const CheckedMap m(r, *f, {"tau_s", "wheel"});
     fx.steering_lag_tau_s = ReadPositive(r, m.Get("tau_s"));
-    fx.steering_wheel = wheel(m);
+    steering_wheel(m, *f);
   }
   if (const auto f = top.Find("steering_backlash")) {
     require_steering(*f);
     const CheckedMap m(r, *f, {"width_rad", "wheel"});
     fx.steering_backlash_width_rad = ReadPositive(r, m.Get("width_rad"));
-    fx.steering_wheel = wheel(m);
+    steering_wheel(m, *f);
   }
   if (const auto f = top.Find("wheel_eccentricity")) {
     const CheckedMap m(r, *f, {"amplitude", "phase", "wheel"});
@@ -198,7 +249,7 @@ void ReadEffects(const Reporter& r, const Field& field, SimConfig* cfg) {
     require_steering(*f);
     const CheckedMap m(r, *f, {"rate_rad_s", "wheel"});
     fx.steering_rate_limit_rad_s = ReadPositive(r, m.Get("rate_rad_s"));
-    fx.steering_wheel = wheel(m);
+    steering_wheel(m, *f);
   }
 }
 
@@ -230,9 +281,19 @@ SimConfig ParseSimConfig(const std::string& yaml_text, const std::string& origin
   }
   if (const auto f = top.Find("world")) {
     std::string world = ReadString(r, *f);
-    if (world.find('/') != std::string::npos && std::filesystem::path(world).is_relative())
-      world = (std::filesystem::path(base_dir) / world).lexically_normal().string();
+    // A bare name without extension is a bundled world (World::Load); anything
+    // else is a file, relative to this config like the robot file.
+    const std::filesystem::path world_path(world);
+    const bool bundled = world.find('/') == std::string::npos && world_path.extension().empty();
+    if (!bundled && world_path.is_relative())
+      world = (std::filesystem::path(base_dir) / world_path).lexically_normal().string();
     cfg.world = world;
+    // Fail here, at the key, rather than when a simulator is built.
+    try {
+      World::Load(world);
+    } catch (const InputError& e) {
+      r.Fail(*f, e.what());
+    }
   }
   if (const auto f = top.Find("start")) {
     const CheckedMap m(r, *f, {"x", "y", "theta"});

@@ -26,7 +26,7 @@ int64_t PeriodUs(double rate_hz) { return rate_hz > 0 ? std::llround(1e6 / rate_
 struct WheelState {
   double phi = 0.0;           // true accumulated rotation, rad
   double omega = 0.0;         // actual angular speed, rad/s
-  double ground_speed = 0.0;  // speed of the contact point over ground, m/s
+  double rolling_speed = 0.0; // r * omega over the previous physics step, m/s
   double steer_reading = 0.0; // raw steering encoder angle (actuator position), rad
   double steer_lagged = 0.0;  // reading after the steering lag, rad
   double last_motion_sign = 1.0;
@@ -87,7 +87,11 @@ Simulator::Simulator(SimConfig config) : config_(std::move(config)), state_(new 
     s.wheels[i].steer_reading = s.wheels[i].steer_target = s.wheels[i].steer_lagged =
         s.steered[i] ? nominal_offset : 0.0;
   }
-  std::seed_seq seq{config_.seed};
+  // std::seed_seq keeps 32 bits per entry: pass the seed's high half as a
+  // second entry (only when non-zero, so seeds below 2^32 keep their streams).
+  std::vector<uint32_t> seed_entries{static_cast<uint32_t>(config_.seed)};
+  if (config_.seed >> 32) seed_entries.push_back(static_cast<uint32_t>(config_.seed >> 32));
+  std::seed_seq seq(seed_entries.begin(), seed_entries.end());
   std::vector<uint64_t> seeds(5);
   seq.generate(seeds.begin(), seeds.end());
   s.rng_wheels.seed(seeds[0]);
@@ -170,19 +174,26 @@ void Simulator::StepPhysics(double dt) {
     true_raw[i] = s.steered[i] ? wheel_angle_raw : 0.0;
 
     // Rolling: wheel_eccentricity and longitudinal_slip change the contact
-    // point's speed over ground.
+    // point's speed over ground, r w (1 + A cos(phi - phase)) (1 - k a).
     const double radius = config_.true_params.at(RadiusParamName(roles[i]));
-    double rolling = radius * w.omega;
+    const double v = radius * w.omega;
+    double eccentric = 1.0;
     if (fx.eccentricity_amplitude != 0 &&
         (fx.eccentricity_wheel.empty() || fx.eccentricity_wheel == roles[i]))
-      rolling *= 1.0 + fx.eccentricity_amplitude * std::cos(w.phi - fx.eccentricity_phase);
-    double ground = rolling;
+      eccentric += fx.eccentricity_amplitude * std::cos(w.phi - fx.eccentricity_phase);
+    double slip = 0.0;  // k a v, m/s
     if (fx.longitudinal_slip_per_accel != 0 &&
         (fx.longitudinal_slip_wheel.empty() || fx.longitudinal_slip_wheel == roles[i])) {
-      const double accel = (radius * w.omega - w.ground_speed) / dt;  // d(r w)/dt
-      ground = rolling * (1.0 - fx.longitudinal_slip_per_accel * accel);
+      // a = d(r w)/dt. A speed change happens at the start of a step, so the
+      // distance slipped over the step, k * integral(a v dt), is k (v^2 - v_prev^2) / 2:
+      // the slip term takes the step's mean speed. (With the new speed alone a ramp of
+      // n command steps loses (1 + 1/n) times too much while accelerating, and a
+      // start-stop run does not get its slip back while braking.)
+      const double accel = (v - w.rolling_speed) / dt;
+      slip = fx.longitudinal_slip_per_accel * accel * 0.5 * (v + w.rolling_speed);
     }
-    w.ground_speed = radius * w.omega;
+    w.rolling_speed = v;
+    const double ground = eccentric * (v - slip);
     effective_omega[i] = ground / radius;
     w.phi += w.omega * dt;
   }
@@ -266,10 +277,11 @@ void Simulator::AdvanceTo(int64_t until, MessageSink* sink) {
       const Lidar2dSensorConfig& L = cfg.lidar2d;
       const int64_t start = s.next_scan_end - s.scan_period;
       const double increment = L.fov_rad / L.beams;
-      const double beams_per_rev = 2.0 * M_PI / increment;
-      double spread_period = s.scan_period * 1e-6;  // one revolution per scan
-      if (cfg.effects.scan_distortion_period_s) spread_period = *cfg.effects.scan_distortion_period_s;
-      const double dt_beam = spread_period / beams_per_rev;
+      // One revolution per scan: the beams of the field of view take their share of it.
+      double dt_beam = s.scan_period * 1e-6 * increment / (2.0 * M_PI);
+      // scan_distortion (spec/effects.md): beam j at utime + j * scan_period_s / nranges.
+      if (cfg.effects.scan_distortion_period_s)
+        dt_beam = *cfg.effects.scan_distortion_period_s / L.beams;
       agvcal::laser_scan_t msg{};
       msg.utime = start + std::llround(cfg.effects.time_offset_s.value_or(0.0) * 1e6);
       msg.angle_min = static_cast<float>(-L.fov_rad / 2.0);

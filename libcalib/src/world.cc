@@ -1,7 +1,6 @@
 #include "calib/world.h"
 
 #include <algorithm>
-#include <cerrno>
 #include <cmath>
 #include <cstdlib>
 #include <filesystem>
@@ -47,12 +46,11 @@ double ParseNumber(const std::string& token, const std::string& element, size_t 
                    const std::string& origin, const std::string& place) {
   const char* begin = token.c_str();
   char* end = nullptr;
-  errno = 0;
   const double value = std::strtod(begin, &end);
-  if (end == begin || *end != '\0' || errno == ERANGE || !std::isfinite(value)) {
-    throw InputError(origin, place,
-                     "'" + token + "' is not a number (field " + std::to_string(field) + " of " +
-                         element + ")");
+  if (end == begin || *end != '\0' || !std::isfinite(value)) {
+    throw InputError(
+        origin, place,
+        "'" + token + "' is not a number (field " + std::to_string(field) + " of " + element + ")");
   }
   return value;
 }
@@ -87,9 +85,9 @@ World World::Parse(const std::string& text, const std::string& origin) {
     }
     auto expect_fields = [&](size_t n, const char* usage) {
       if (v.size() != n && v.size() != n + 1) {
-        throw InputError(origin, place,
-                         element + " takes " + usage + ", got " + std::to_string(v.size()) +
-                             " numbers");
+        throw InputError(
+            origin, place,
+            element + " takes " + usage + ", got " + std::to_string(v.size()) + " numbers");
       }
     };
     // The optional last field is the element's height; it must be positive
@@ -97,8 +95,8 @@ World World::Parse(const std::string& text, const std::string& origin) {
     auto element_height = [&](size_t n) {
       const double h = v.size() > n ? v[n] : height;
       if (h <= 0.0) {
-        throw InputError(origin, place, element + " height must be positive, got " +
-                                            std::to_string(h));
+        throw InputError(origin, place,
+                         element + " height must be positive, got " + std::to_string(h));
       }
       return h;
     };
@@ -172,8 +170,8 @@ World World::Load(const std::string& path_or_name) {
     std::string known;
     for (const std::string& n : names) known += (known.empty() ? "" : ", ") + n;
     throw InputError(path_or_name, "",
-                     "no bundled world of that name (looked for " + path + "; bundled: " +
-                         (known.empty() ? "none" : known) + ")");
+                     "no bundled world of that name (looked for " + path +
+                         "; bundled: " + (known.empty() ? "none" : known) + ")");
   }
   std::stringstream text;
   text << in.rdbuf();
@@ -322,8 +320,8 @@ double World::CastRay3d(const Eigen::Vector3d& origin, const Eigen::Vector3d& di
   double t_max = std::min(max_range, best);
   if (dir.z() > 0.0) t_max = std::min(t_max, (max_height_ - origin.z()) / dir.z());
   if (dir.z() >= 0.0 && origin.z() > max_height_) t_max = -1.0;
-  best = std::min(best, Traverse(origin.x(), origin.y(), dir.x(), dir.y(), t_max, origin.z(),
-                                 dir.z()));
+  best = std::min(best,
+                  Traverse(origin.x(), origin.y(), dir.x(), dir.y(), t_max, origin.z(), dir.z()));
   return best <= max_range ? best : kNoHit;
 }
 
