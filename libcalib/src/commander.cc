@@ -3,7 +3,6 @@
 #include <algorithm>
 #include <cmath>
 #include <cstdio>
-#include <limits>
 #include <stdexcept>
 
 #include "calib/errors.h"
@@ -678,8 +677,8 @@ Trajectory MakeDualSteer(const RobotDescription& robot, const std::string& name)
     AddBothSteered(&s, lim, "counter-steer", -c, c, 2.0);
     AddStraightSteered(&s, 2, lim.max_speed, 4.0);
   } else if (name == "three_segment") {
-    AddThreeSegment(&s, lim, angles[0], 2.0);
-    AddThreeSegment(&s, lim, -angles[0], 2.0);
+    AddThreeSegment(&s, lim, angles[0], 1.8);
+    AddThreeSegment(&s, lim, -angles[0], 1.8);
   } else if (name == "demo") {
     AddThreeSegment(&s, lim, angles[0], 1.0);
   } else if (name == "straight") {

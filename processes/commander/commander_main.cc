@@ -6,6 +6,7 @@
 #include <lcm/lcm-cpp.hpp>
 
 #include <algorithm>
+#include <climits>
 #include <cmath>
 #include <iostream>
 #include <map>
@@ -137,7 +138,12 @@ int Run(int argc, char** argv) {
   bool stale = false;
   int final_stops = 0;
 
-  auto publish_command = [&](const calib::DriveCommand& command) {
+  // Stamps are the wheel-state time; a stop sent without a newer wheel state (stale inputs, the
+  // end) gets 1 us more than the previous command, so stamps stay strictly increasing.
+  int64_t last_stamp = INT64_MIN;
+  auto publish_command = [&](calib::DriveCommand command) {
+    if (last_stamp != INT64_MIN) command.utime = std::max(command.utime, last_stamp + 1);
+    last_stamp = command.utime;
     const agvcal::drive_command_t msg = calib::ToMessage(command, robot, seq++);
     lcm.publish(calib::kDriveCmdChannel, &msg);
   };
@@ -192,7 +198,8 @@ int Run(int argc, char** argv) {
       last_utime = utime;
       if (stale) {
         stale = false;
-        std::cerr << "agvcal-commander: WHEELS back, resuming\n";
+        std::cerr << "agvcal-commander: WHEELS " << (commander ? "back, resuming" : "arriving, starting")
+                  << "\n";
       }
       if (!commander) {
         calib::CommanderOptions opts = options;

@@ -12,17 +12,19 @@
 // Trajectories (names; every drive type also has "demo", about 25 s of a few
 // motions for end-to-end tests, and "straight", straight runs forward and back
 // only: a degenerate recording):
-//   differential: "default" (all of the below, about 4 min), "umbmark"
-//     (bidirectional square, 2.5 m sides, CCW and CW), "turns" (turns in
-//     place both ways at two rates), "figure8" (figure-eights both ways).
-//   tricycle: "default" (about 4 min): arcs at true steering angles of
+//   differential: "default" (all of the below plus straight runs, about
+//     3.3 min at the bundled robot's limits), "umbmark" (bidirectional
+//     square, 2.5 m sides, CCW and CW), "turns" (turns in place both ways at
+//     two rates), "figure8" (figure-eights both ways, 1.2 m loops).
+//   tricycle: "default" (about 3.2 min): arcs at true steering angles of
 //     +-0.2, +-0.4, +-0.7, +-1.0 rad (scaled down when max_steer is smaller),
-//     each driven forward then back along the same arc in reverse, and
+//     each driven 3 m forward then back along the same arc in reverse, and
 //     straight runs forward and back, so the robot stays near its start.
-//   dual_steer: "default" (about 4 min): the three-segment run (a1 steered
-//     one way, straight, the other way; a2 held at zero) in both mirror images
-//     and both directions of travel, crab runs (both wheels steered alike),
-//     counter-steered arcs, straight runs; "three_segment" alone.
+//   dual_steer: "default" (about 3.8 min): the three-segment run (a1 steered
+//     one way, straight, the other way; a2 held at zero; 1.8 m of a1 travel
+//     each) at two angles and in both mirror images, each driven back in
+//     reverse; crab runs (both wheels steered alike), counter-steered arcs
+//     and straight runs, forward and back; "three_segment" alone.
 //
 // Every segment starts and ends at rest: the wheels stop, the steering turns
 // at no more than max_steer_rate, settles, then the drive follows a
