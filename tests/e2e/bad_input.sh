@@ -1,7 +1,7 @@
 #!/usr/bin/env bash
 # Bad input gets one clear line naming the file, the place and the problem,
 # and exit status 2 (spec/cli.md); nothing is written half.
-source "$(dirname "$0")/common.sh" "$@"
+source "$(dirname "$0")/lib.bash" "$@"
 "$AGVCAL" simulate config/sims/diff_robot.yaml "$TMP/good.log" --trajectory demo --quiet
 size=$(stat -c %s "$TMP/good.log")
 

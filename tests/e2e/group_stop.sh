@@ -2,11 +2,15 @@
 # The group stops as one: on Ctrl-C (SIGINT) the recording is complete and
 # readable and no process is left; when one process dies, the others stop and
 # the group reports it.
-source "$(dirname "$0")/common.sh" "$@"
+source "$(dirname "$0")/lib.bash" "$@"
 run_in_ns() {  # runs the group in its own namespace in the background, records its pid
+  # Job control, so the background group does not inherit SIGINT as ignored
+  # (as it would from a non-interactive shell) and Ctrl-C can reach it.
+  set -m
   scripts/netns-run scripts/agvcal-group --sim config/sims/diff_robot.yaml --trajectory default \
     --speed 2 --log "$TMP/$1.log" >"$TMP/$1.out" 2>&1 &
   group=$!
+  set +m
   sleep 6
 }
 run_in_ns interrupted

@@ -3,7 +3,7 @@
 # processes) in a private network namespace, for each drive type: the
 # recording has every channel at its rate, and the true motion followed the
 # commanded one.
-source "$(dirname "$0")/common.sh" "$@"
+source "$(dirname "$0")/lib.bash" "$@"
 for robot in diff_robot forklift dual_steer_agv; do
   log=$TMP/$robot.log
   expect_status 0 "$robot: group runs the demo trajectory" \

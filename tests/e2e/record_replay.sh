@@ -1,7 +1,7 @@
 #!/usr/bin/env bash
 # Offline recordings are deterministic, and a replay through lcm-logplayer
 # into the group reaches a logger unchanged (in a private network namespace).
-source "$(dirname "$0")/common.sh" "$@"
+source "$(dirname "$0")/lib.bash" "$@"
 sim=config/sims/forklift.yaml
 "$AGVCAL" simulate "$sim" "$TMP/a.log" --trajectory demo --quiet
 "$AGVCAL" simulate "$sim" "$TMP/b.log" --trajectory demo --quiet

@@ -1,5 +1,5 @@
 # Shared by the end-to-end tests: paths, a scratch directory, and checks.
-# Usage in a test: source "$(dirname "$0")/common.sh" "$@"
+# Usage in a test: source "$(dirname "$0")/lib.bash" "$@"
 set -u
 BUILD=$(cd "${1:?build dir}" && pwd)
 SRC=$(cd "${2:?source dir}" && pwd)
