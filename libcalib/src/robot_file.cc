@@ -202,23 +202,9 @@ RobotDescription ParseDocument(const Reporter& reporter, const YAML::Node& root,
 
 RobotDescription ParseRobot(const std::string& yaml_text, const std::string& origin) {
   const Reporter reporter(origin);
-  std::vector<YAML::Node> documents;
+  const Field root = yaml::ParseSingleDocument(reporter, yaml_text, "robot file");
   try {
-    documents = YAML::LoadAll(yaml_text);
-  } catch (const YAML::ParserException& e) {
-    reporter.Fail(LineOf(e.mark), "", "YAML syntax error: " + e.msg);
-  } catch (const YAML::Exception& e) {
-    reporter.Fail(LineOf(e.mark), "", std::string("YAML error: ") + e.what());
-  }
-  if (documents.empty() || (documents.size() == 1 && documents[0].IsNull())) {
-    reporter.Fail(0, "", "empty robot file (expected name, drive, wheels, params, ...)");
-  }
-  if (documents.size() > 1) {
-    reporter.Fail(LineOf(documents[1].Mark()), "",
-                  "more than one YAML document; a robot file holds one robot");
-  }
-  try {
-    return ParseDocument(reporter, documents[0], origin);
+    return ParseDocument(reporter, root.value, origin);
   } catch (const YAML::Exception& e) {  // Not expected: every access is checked first.
     reporter.Fail(LineOf(e.mark), "", std::string("YAML error: ") + e.what());
   }

@@ -169,7 +169,7 @@ Field ParseSingleDocument(const Reporter& reporter, const std::string& text, con
     reporter.Fail(LineOf(documents[1].Mark()), "", "more than one YAML document in a " + what);
   const YAML::Node& root = documents[0];
   const int root_line = std::max(1, LineOf(root.Mark()));
-  if (!root.IsMap()) reporter.Fail(root_line, "", "the top level of a " + what + " must be a map, got " + Describe(root));
+  if (!root.IsMap()) reporter.Fail(root_line, "", "the top level must be a map of keys (" + what + "), got " + Describe(root));
   return Field{"", root_line, root};
 }
 

@@ -22,14 +22,7 @@ message that does not decode as the type of spec/messages.md.
 
 int Info(int argc, char** argv) {
   const auto args = agvcal_process::ParseArgs(argc, argv, 2, {}, {"--json"});
-  if (args.Has("--help")) {
-    std::cout << kUsage;
-    return calib::kExitOk;
-  }
-  if (args.positional.size() != 1) {
-    std::cerr << kUsage;
-    return calib::kExitBadInput;
-  }
+  if (const auto status = agvcal_process::CheckUsage(args, kUsage, 1)) return *status;
   const calib::LogSummary summary = calib::SummarizeLog(args.positional[0]);
   if (args.Has("--json")) {
     nlohmann::json out;

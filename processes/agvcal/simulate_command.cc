@@ -22,14 +22,7 @@ seed give the same bytes.
 
 int Simulate(int argc, char** argv) {
   const auto args = agvcal_process::ParseArgs(argc, argv, 2, {"--trajectory", "--seed"}, {"--quiet"});
-  if (args.Has("--help")) {
-    std::cout << kUsage;
-    return calib::kExitOk;
-  }
-  if (args.positional.size() != 2) {
-    std::cerr << kUsage;
-    return calib::kExitBadInput;
-  }
+  if (const auto status = agvcal_process::CheckUsage(args, kUsage, 2)) return *status;
   calib::SimConfig config = calib::LoadSimConfig(args.positional[0]);
   if (args.Has("--seed")) {
     const double seed = args.GetDouble("--seed", 0);

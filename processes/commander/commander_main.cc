@@ -97,14 +97,7 @@ int Run(int argc, char** argv) {
   using namespace agvcal_process;
   const Args args = ParseArgs(argc, argv, 1,
                               {"--trajectory", "--stale-timeout", "--rate", "--lcm-url"}, {});
-  if (args.Has("--help")) {
-    std::cout << kUsage;
-    return calib::kExitOk;
-  }
-  if (args.positional.size() != 1) {
-    std::cerr << kUsage;
-    return calib::kExitBadInput;
-  }
+  if (const auto status = agvcal_process::CheckUsage(args, kUsage, 1)) return *status;
   const double stale_timeout_s = args.GetDouble("--stale-timeout", 0.5);
   const double rate_hz = args.GetDouble("--rate", 20.0);
   if (!(stale_timeout_s > 0)) throw calib::InputError("command line", "--stale-timeout", "must be > 0");

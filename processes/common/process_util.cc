@@ -3,6 +3,7 @@
 #include <chrono>
 #include <csignal>
 #include <cstdlib>
+#include <iostream>
 #include <unistd.h>
 
 #include "agvcal/heartbeat_t.hpp"
@@ -92,6 +93,18 @@ Args ParseArgs(int argc, char** argv, int first, const std::vector<std::string>&
     }
   }
   return args;
+}
+
+std::optional<int> CheckUsage(const Args& args, const char* usage, size_t positional_count) {
+  if (args.Has("--help")) {
+    std::cout << usage;
+    return calib::kExitOk;
+  }
+  if (args.positional.size() != positional_count) {
+    std::cerr << usage;
+    return calib::kExitBadInput;
+  }
+  return std::nullopt;
 }
 
 }  // namespace agvcal_process

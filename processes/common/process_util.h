@@ -8,6 +8,7 @@
 #include <atomic>
 #include <cstdint>
 #include <map>
+#include <optional>
 #include <string>
 #include <vector>
 
@@ -66,5 +67,10 @@ struct Args {
 // missing value.
 Args ParseArgs(int argc, char** argv, int first, const std::vector<std::string>& with_value,
                const std::vector<std::string>& flags);
+
+// Handles --help (usage on stdout, exit 0) and a wrong number of positional
+// arguments (usage on stderr, exit 2): the exit status to return at once, or
+// nothing to go on.
+std::optional<int> CheckUsage(const Args& args, const char* usage, size_t positional_count);
 
 }  // namespace agvcal_process

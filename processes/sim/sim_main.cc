@@ -49,14 +49,7 @@ int Run(int argc, char** argv) {
   using namespace agvcal_process;
   const Args args = ParseArgs(argc, argv, 1, {"--speed", "--duration", "--lcm-url"},
                               {"--print-robot"});
-  if (args.Has("--help")) {
-    std::cout << kUsage;
-    return 0;
-  }
-  if (args.positional.size() != 1) {
-    std::cerr << kUsage;
-    return calib::kExitBadInput;
-  }
+  if (const auto status = agvcal_process::CheckUsage(args, kUsage, 1)) return *status;
   const double speed = args.GetDouble("--speed", 1.0);
   const double duration = args.GetDouble("--duration", 0.0);
   if (!(speed > 0)) throw calib::InputError("command line", "--speed", "must be > 0");
