@@ -2,6 +2,7 @@
 //   e2e_log_check rates LOG CHANNEL=HZ...     every channel present at its rate (±10 %)
 //   e2e_log_check tracking LOG ROBOT.yaml     the true motion followed the commanded one
 //   e2e_log_check same LOG_A LOG_B            same messages (bytes) per channel, in order
+//   e2e_log_check stale LOG                   the commander reported stale inputs and stopped the robot
 // Prints one line per check and exits 1 if any fails.
 #include <cmath>
 #include <iostream>
@@ -9,6 +10,7 @@
 #include <string>
 #include <vector>
 
+#include "agvcal/commander_status_t.hpp"
 #include "agvcal/drive_command_t.hpp"
 #include "agvcal/pose2d_t.hpp"
 #include "calib/errors.h"
@@ -126,12 +128,35 @@ int Same(const std::string& a, const std::string& b) {
   return failures ? 1 : 0;
 }
 
+int Stale(const std::string& log) {
+  calib::LogReader reader(log);
+  calib::LogEvent e;
+  int moving = 0, stale_reports = 0, last_mode = -1;
+  while (reader.Next(&e)) {
+    if (e.channel == calib::kDriveCmdChannel) {
+      agvcal::drive_command_t m;
+      calib::Decode(e.data.data(), int(e.data.size()), &m);
+      last_mode = m.mode;
+      if (m.mode != agvcal::drive_command_t::MODE_STOP) ++moving;
+    } else if (e.channel == calib::kCommanderStatusChannel) {
+      agvcal::commander_status_t m;
+      calib::Decode(e.data.data(), int(e.data.size()), &m);
+      if (m.state == "stale_inputs") ++stale_reports;
+    }
+  }
+  Check(moving > 10, "the commander drove while wheel states came (" + std::to_string(moving) + " commands)");
+  Check(stale_reports > 0, "it reported stale inputs");
+  Check(last_mode == agvcal::drive_command_t::MODE_STOP, "its last command is a stop");
+  return failures ? 1 : 0;
+}
+
 int Run(int argc, char** argv) {
   const std::string mode = argc > 1 ? argv[1] : "";
   if (mode == "rates" && argc >= 4) return Rates(argc, argv);
   if (mode == "tracking" && argc == 4) return Tracking(argv[2], argv[3]);
   if (mode == "same" && argc == 4) return Same(argv[2], argv[3]);
-  std::cerr << "usage: e2e_log_check rates LOG CHANNEL=HZ... | tracking LOG ROBOT.yaml | same A B\n";
+  if (mode == "stale" && argc == 3) return Stale(argv[2]);
+  std::cerr << "usage: e2e_log_check rates LOG CHANNEL=HZ... | tracking LOG ROBOT.yaml | same A B | stale LOG\n";
   return 2;
 }
 
