@@ -377,7 +377,8 @@ Commander::Commander(const RobotDescription& robot, Trajectory trajectory, Comma
     p.steer_from = steer;
     s.phases.push_back(p);
   };
-  auto turn_to = [&](int segment, const std::vector<double>& target) {
+  // Turns the wheels to `target` at the steering-rate limit, then lets them settle.
+  auto turn_to = [&](int segment, const std::vector<double>& target, double settle_s) {
     if (s.SteerDuration(steer, target) <= 0.0) return;
     Phase p;
     p.kind = PhaseKind::kSteer;
@@ -387,13 +388,13 @@ Commander::Commander(const RobotDescription& robot, Trajectory trajectory, Comma
     p.duration = s.SteerDuration(steer, target);
     s.phases.push_back(p);
     steer = target;
-    hold(segment, s.settle_s);
+    if (settle_s > 0.0) hold(segment, settle_s);
   };
   hold(0, std::max(0.0, options_.start_delay_s));
   for (size_t k = 0; k < s.motions.size(); ++k) {
     const Motion& m = s.motions[k];
     const int seg = static_cast<int>(k);
-    if (s.steered()) turn_to(seg, m.steer);
+    if (s.steered()) turn_to(seg, m.steer, s.settle_s);
     Phase p;
     p.kind = PhaseKind::kDrive;
     p.segment = seg;
@@ -406,16 +407,7 @@ Commander::Commander(const RobotDescription& robot, Trajectory trajectory, Comma
   }
   if (s.steered()) {
     const int last = std::max(0, static_cast<int>(s.motions.size()) - 1);
-    const std::vector<double> zero(n, 0.0);
-    if (s.SteerDuration(steer, zero) > 0.0) {
-      Phase p;
-      p.kind = PhaseKind::kSteer;
-      p.segment = last;
-      p.steer_from = steer;
-      p.steer_to = zero;
-      p.duration = s.SteerDuration(steer, zero);
-      s.phases.push_back(p);
-    }
+    turn_to(last, std::vector<double>(n, 0.0), 0.0 /* no settle before the stop */);
   }
   for (const Phase& p : s.phases) s.nominal_duration += p.duration;
 }
