@@ -1,0 +1,117 @@
+#pragma once
+// Joint calibration of a drive's kinematic parameters and a planar sensor's
+// mount (2D lidar or the tracked point of an external pose source), optionally
+// with the sensor-to-wheel time offset.
+//
+// The data: the wheel encoders (WheelTrack) and the sensor's own motion between
+// consecutive observations (SensorMotion: scan matching or external poses).
+// For every interval [t0, t1] the drive model integrates the encoders into the
+// robot's motion q; the mount l carries it into the sensor's motion
+// l^-1 ∘ q ∘ l, which is compared with the measured one. Calibration:
+//   1. a closed-form first estimate (closed_form.h);
+//   2. maximum likelihood with Ceres over all parameters, robust loss first,
+//      then outlier rejection (chi-square, 3 dof, p = 0.001) and a plain
+//      least-squares refit on the inliers;
+//   3. the covariance from the Fisher information, scaled by the residuals'
+//      variance factor (the matcher's covariances set the shape, the data the
+//      scale), and an observability check that names what the recording
+//      cannot determine (UnobservableError, exit status 3).
+
+#include <cstdint>
+#include <map>
+#include <optional>
+#include <string>
+#include <vector>
+
+#include <Eigen/Core>
+
+#include "calib/robot.h"
+#include "calib/sensor_motion.h"
+#include "calib/wheel_track.h"
+
+namespace calib {
+
+// Where the sensor motions come from; names the mount in results ("lidar2d", "pose").
+enum class MotionSource { kLidar2d, kPose };
+const char* MotionSourceName(MotionSource source);
+
+struct CalibrationOptions {
+  bool estimate_time_offset = false;
+  double max_time_offset_s = 0.2;   // search bound of the time offset
+  double outlier_chi2 = 16.27;      // chi-square (3 dof) beyond which an interval is an outlier
+  // Fit on the first `fit_fraction` of the recording's intervals; the rest is
+  // held out to compare the calibrated model with the nominal one.
+  double fit_fraction = 1.0;
+  double heldout_window_s = 10.0;   // length of the odometry windows compared on held-out data
+  bool check_observability = true;  // throw UnobservableError when a parameter is undetermined
+};
+
+struct Estimate {
+  double value = 0.0;
+  double std = 0.0;
+  double nominal = 0.0;
+};
+
+struct IntervalResidual {
+  int64_t utime_start = 0, utime_end = 0;
+  Eigen::Vector3d error = Eigen::Vector3d::Zero();  // measured - predicted sensor motion (m, m, rad)
+  double chi2 = 0.0;                                // standardized, 3 dof
+  bool outlier = false;
+  bool heldout = false;
+};
+
+struct ResidualSummary {
+  int intervals = 0;  // used in the fit (inliers + outliers)
+  int outliers = 0;
+  int degenerate = 0;  // matches flagged degenerate, left out
+  int invalid = 0;     // failed matches or intervals without encoder data, left out
+  double rms_x = 0.0, rms_y = 0.0, rms_yaw = 0.0;  // of the inliers, m, m, rad
+  double variance_factor = 1.0;  // chi2 / dof: how far the matcher's covariances were off
+};
+
+// Odometry over held-out windows: the model's prediction chained over
+// `heldout_window_s` against the sensor's measured motion over the same span.
+struct OdometryError {
+  int windows = 0;
+  double distance_m = 0.0;           // travelled in those windows
+  double rms_translation_m = 0.0;    // per window
+  double rms_heading_rad = 0.0;      // per window
+  double error_per_metre = 0.0;      // sum of translation errors / distance
+};
+
+struct HeldoutComparison {
+  int intervals = 0;
+  OdometryError nominal;     // robot file's nominal parameters and mount
+  OdometryError calibrated;  // the calibration's
+};
+
+struct CalibrationResult {
+  DriveType drive = DriveType::kDifferential;
+  MotionSource source = MotionSource::kLidar2d;
+  std::vector<std::string> param_names;  // ParamNames(drive)
+  std::map<std::string, Estimate> params;
+  Estimate mount_x, mount_y, mount_yaw;
+  std::optional<Estimate> time_offset;  // when estimated
+  std::map<std::string, double> closed_form;  // first estimate: params and mount_x/y/yaw
+  std::string closed_form_note;               // why the closed form was not used, if so
+  ResidualSummary residual;
+  double condition = 0.0;         // of the correlation-normalised Fisher information
+  std::vector<std::string> weak;  // parameters the data determine poorly
+  std::vector<std::string> estimated_names;  // order of `covariance`
+  Eigen::MatrixXd covariance;
+  std::vector<IntervalResidual> intervals;
+  std::optional<HeldoutComparison> heldout;
+};
+
+// Calibrates from the encoders and the sensor motions. The nominal values come
+// from `robot` (params and the mount of `source`; a missing mount starts at 0).
+// Throws UnobservableError when the data cannot determine a parameter (naming
+// it and the motion to add), InputError when there is nothing to fit.
+CalibrationResult Calibrate(const RobotDescription& robot, const WheelTrack& wheels,
+                            const std::vector<SensorMotion>& motions, MotionSource source,
+                            const CalibrationOptions& options, const std::string& origin);
+
+// The robot description with the calibrated values in place of the nominal ones.
+RobotDescription Calibrated(const RobotDescription& robot, const CalibrationResult& result);
+
+}  // namespace calib

@@ -1,0 +1,50 @@
+#pragma once
+// Gathers what the calibration needs from a stream of messages: the encoder
+// track and the sensor motions. The live solver feeds it from the bus and
+// `agvcal solve` from a log, so both see the same data and give the same
+// numbers. Messages whose stamps go backwards or repeat are dropped and counted.
+
+#include <cstdint>
+#include <optional>
+#include <string>
+#include <vector>
+
+#include "agvcal/pose2d_t.hpp"
+#include "agvcal/wheel_state_t.hpp"
+#include "calib/calibration.h"
+#include "calib/robot.h"
+#include "calib/sensor_motion.h"
+#include "calib/wheel_track.h"
+
+namespace calib {
+
+class CalibrationData {
+ public:
+  explicit CalibrationData(const RobotDescription& robot) : robot_(robot) {}
+
+  // Throws InputError (naming `origin`) for a wheel state without the robot's wheels.
+  void AddWheels(const agvcal::wheel_state_t& message, const std::string& origin);
+  // An external pose: the motion since the previous pose becomes a SensorMotion.
+  void AddPose(const agvcal::pose2d_t& message);
+  // A scan-matched (or otherwise measured) sensor motion.
+  void AddMotion(const SensorMotion& motion);
+
+  const WheelTrack& wheels() const { return wheels_; }
+  const std::vector<SensorMotion>& motions() const { return motions_; }
+  int64_t dropped_wheels() const { return dropped_wheels_; }
+  int64_t dropped_poses() const { return dropped_poses_; }
+
+ private:
+  const RobotDescription& robot_;
+  WheelTrack wheels_;
+  std::vector<SensorMotion> motions_;
+  std::optional<agvcal::pose2d_t> last_pose_;
+  int64_t dropped_wheels_ = 0, dropped_poses_ = 0;
+};
+
+// The motion between two poses of an external source, with its covariance in
+// the first pose's frame (from the poses' own covariances, or 1 cm / 0.5 deg
+// when they are not given: the solver rescales it from the residuals).
+SensorMotion MotionBetweenPoses(const agvcal::pose2d_t& from, const agvcal::pose2d_t& to);
+
+}  // namespace calib

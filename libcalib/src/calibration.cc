@@ -1,0 +1,537 @@
+#include "calib/calibration.h"
+
+#include <algorithm>
+#include <cmath>
+#include <memory>
+#include <sstream>
+
+#include <Eigen/Dense>
+#include <ceres/ceres.h>
+
+#include "calib/closed_form.h"
+#include "calib/errors.h"
+#include "calib/kinematics_generic.h"
+
+namespace calib {
+namespace {
+
+constexpr int kMaxParams = 5;
+// Median of a chi-square variable with 3 degrees of freedom: robust scale of the residuals.
+constexpr double kChi2Median3 = 2.366;
+
+double Scalar(double x) { return x; }
+template <typename T, int N>
+double Scalar(const ceres::Jet<T, N>& x) {
+  return x.a;
+}
+
+// One interval's residual: measured sensor motion minus the one predicted from the encoders,
+// the drive parameters, the mount and the time offset, whitened by the measurement's
+// covariance. The encoder samples are those around the interval, times relative to its start.
+class IntervalCost {
+ public:
+  IntervalCost(DriveType type, int num_wheels, std::vector<double> times,
+               std::vector<WheelSample> samples, double duration, const Pose2& measured,
+               const Eigen::Matrix3d& sqrt_information)
+      : type_(type), num_wheels_(num_wheels), times_(std::move(times)),
+        samples_(std::move(samples)), duration_(duration),
+        measured_(measured.x, measured.y, measured.theta), sqrt_information_(sqrt_information) {}
+
+  template <typename T>
+  bool operator()(const T* params, const T* mount, const T* offset, T* residual) const {
+    T e[3];
+    Error(params, mount, offset, e);
+    for (int i = 0; i < 3; ++i) {
+      residual[i] = T(0.0);
+      for (int j = 0; j < 3; ++j) residual[i] += sqrt_information_(i, j) * e[j];
+    }
+    return true;
+  }
+
+  // Measured minus predicted (x, y, theta), unwhitened.
+  template <typename T>
+  void Error(const T* params, const T* mount, const T* offset, T* e) const {
+    using P = generic::Pose<T>;
+    P q{T(0.0), T(0.0), T(0.0)};
+    // The scan stamped t was taken at wheel time t - offset (spec/effects.md time_offset).
+    ForEachStep(-offset[0], T(duration_) - offset[0], [&](const T* rotation, const T* steer) {
+      T dx = T(0.0), dy = T(0.0), dtheta = T(0.0);
+      generic::BodyDisplacement(type_, params, rotation, steer, &dx, &dy, &dtheta);
+      q = generic::Compose(q, generic::Exp(dx, dy, dtheta));
+    });
+    const P l{mount[0], mount[1], mount[2]};
+    const P z = generic::Compose(generic::Compose(generic::Inverse(l), q), l);
+    e[0] = T(measured_[0]) - z.x;
+    e[1] = T(measured_[1]) - z.y;
+    const double turns = std::round((measured_[2] - Scalar(z.theta)) / (2.0 * M_PI));
+    e[2] = T(measured_[2]) - z.theta - T(turns * 2.0 * M_PI);
+  }
+
+ private:
+  // Calls step(rotation, mean_steer) for each encoder step over [start, end] (s, relative to
+  // the interval's start), the first and last cut by interpolation.
+  template <typename T, typename Step>
+  void ForEachStep(const T& start, const T& end, Step step) const {
+    std::size_t i = Segment(Scalar(start));
+    const std::size_t last = Segment(Scalar(end));
+    T prev_pos[2], prev_steer[2], pos[2], steer[2];
+    Interpolate(i, start, prev_pos, prev_steer);
+    for (;;) {
+      const bool final_step = i >= last;
+      if (final_step) {
+        Interpolate(last, end, pos, steer);
+      } else {
+        ++i;
+        for (int w = 0; w < num_wheels_; ++w) {
+          pos[w] = T(samples_[i].position[w]);
+          steer[w] = T(samples_[i].steer[w]);
+        }
+      }
+      T rotation[2], mean_steer[2];
+      for (int w = 0; w < num_wheels_; ++w) {
+        rotation[w] = pos[w] - prev_pos[w];
+        mean_steer[w] = 0.5 * (steer[w] + prev_steer[w]);
+        prev_pos[w] = pos[w];
+        prev_steer[w] = steer[w];
+      }
+      step(rotation, mean_steer);
+      if (final_step) break;
+    }
+  }
+
+  // Index i of the sample interval [times_[i], times_[i+1]] that holds t (clamped).
+  std::size_t Segment(double t) const {
+    const auto it = std::upper_bound(times_.begin(), times_.end(), t);
+    const std::size_t i = it == times_.begin() ? 0 : std::size_t(it - times_.begin()) - 1;
+    return std::min(i, times_.size() - 2);
+  }
+
+  template <typename T>
+  void Interpolate(std::size_t i, const T& t, T* pos, T* steer) const {
+    const T s = (t - times_[i]) / (times_[i + 1] - times_[i]);
+    for (int w = 0; w < num_wheels_; ++w) {
+      pos[w] = samples_[i].position[w] + s * (samples_[i + 1].position[w] - samples_[i].position[w]);
+      steer[w] = samples_[i].steer[w] + s * (samples_[i + 1].steer[w] - samples_[i].steer[w]);
+    }
+  }
+
+  DriveType type_;
+  int num_wheels_;
+  std::vector<double> times_;  // s, relative to the interval's start stamp
+  std::vector<WheelSample> samples_;
+  double duration_;
+  Eigen::Vector3d measured_;
+  Eigen::Matrix3d sqrt_information_;
+};
+
+// The parameter vector: drive parameters, mount, time offset.
+struct State {
+  double params[kMaxParams] = {0, 0, 0, 0, 0};
+  double mount[3] = {0, 0, 0};
+  double offset[1] = {0};
+};
+
+struct Interval {
+  const SensorMotion* motion;
+  std::unique_ptr<IntervalCost> cost;
+  std::unique_ptr<ceres::CostFunction> function;
+  bool heldout = false;
+  bool outlier = false;
+};
+
+Eigen::Matrix3d SqrtInformation(const Eigen::Matrix3d& covariance) {
+  Eigen::LLT<Eigen::Matrix3d> llt(covariance.inverse());
+  if (!covariance.allFinite() || llt.info() != Eigen::Success || !llt.matrixU().toDenseMatrix().allFinite()) {
+    return Eigen::Vector3d(1.0 / 0.01, 1.0 / 0.01, 1.0 / 0.005).asDiagonal();  // 1 cm, 0.3 deg
+  }
+  return llt.matrixU();
+}
+
+template <int N>
+ceres::CostFunction* MakeFunction(IntervalCost* cost) {
+  return new ceres::AutoDiffCostFunction<IntervalCost, 3, N, 3, 1>(cost, ceres::DO_NOT_TAKE_OWNERSHIP);
+}
+
+// Whitened residual chi-square of an interval at `state`.
+double Chi2(const Interval& interval, const State& state) {
+  double r[3];
+  const double* blocks[3] = {state.params, state.mount, state.offset};
+  interval.function->Evaluate(blocks, r, nullptr);
+  return r[0] * r[0] + r[1] * r[1] + r[2] * r[2];
+}
+
+Eigen::Vector3d Error(const Interval& interval, const State& state) {
+  double e[3];
+  interval.cost->Error(state.params, state.mount, state.offset, e);
+  return {e[0], e[1], e[2]};
+}
+
+double Median(std::vector<double> v) {
+  if (v.empty()) return 0.0;
+  std::nth_element(v.begin(), v.begin() + v.size() / 2, v.end());
+  return v[v.size() / 2];
+}
+
+// Least squares over the intervals selected, with the residuals divided by `scale`.
+void Solve(std::vector<Interval>& intervals, State* state, int num_params, double scale, bool robust, bool estimate_offset, double max_offset) {
+  ceres::Problem::Options problem_options;
+  problem_options.cost_function_ownership = ceres::DO_NOT_TAKE_OWNERSHIP;
+  problem_options.loss_function_ownership = ceres::TAKE_OWNERSHIP;
+  ceres::Problem problem(problem_options);
+  problem.AddParameterBlock(state->params, num_params);
+  problem.AddParameterBlock(state->mount, 3);
+  problem.AddParameterBlock(state->offset, 1);
+  for (Interval& it : intervals) {
+    if (it.heldout || it.outlier) continue;
+    // The residual divided by `scale` is a chi-square cost scaled by 1/scale^2.
+    ceres::LossFunction* loss = new ceres::ScaledLoss(
+        robust ? new ceres::CauchyLoss(3.0 * scale) : nullptr, 1.0 / (scale * scale),
+        ceres::TAKE_OWNERSHIP);
+    problem.AddResidualBlock(it.function.get(), loss, state->params, state->mount, state->offset);
+  }
+  if (estimate_offset) {
+    problem.SetParameterLowerBound(state->offset, 0, -max_offset);
+    problem.SetParameterUpperBound(state->offset, 0, max_offset);
+  } else {
+    problem.SetParameterBlockConstant(state->offset);
+  }
+  ceres::Solver::Options options;
+  options.linear_solver_type = ceres::DENSE_QR;
+  options.max_num_iterations = 100;
+  options.function_tolerance = 1e-12;
+  options.parameter_tolerance = 1e-12;
+  options.num_threads = 1;  // deterministic sums
+  ceres::Solver::Summary summary;
+  ceres::Solve(options, &problem, &summary);
+}
+
+// Thresholds on one sigma beyond which the recording cannot determine a parameter, and the
+// motion that would.
+struct Requirement {
+  double refuse;  // one sigma above this: not determined
+  std::string remedy;
+};
+
+Requirement RequirementFor(DriveType type, const std::string& name, double nominal) {
+  const double length = std::max(std::abs(nominal), 0.1);
+  if (name.find("radius") != std::string::npos)
+    return {0.05 * std::abs(nominal), "drive straight over a few metres, forward and back"};
+  if (name == "track")
+    return {0.1 * length, "turn: arcs of different curvature or turns in place, both ways"};
+  if (name == "wheelbase" || name == "steer_offset")
+    return {name == "wheelbase" ? 0.1 * length : 0.087,
+            "drive arcs at two or more distinct steering angles, to both sides"};
+  if (name == "b" || name == "a1_steer_offset")
+    return {name == "b" ? 0.1 * length : 0.087,
+            "drive arcs with a1 steered to both sides while a2 stays at zero"};
+  if (name == "a")
+    return {0.1 * length, "turn while a2 is driven: arcs with a1 steered and a2 at zero"};
+  if (name == "time_offset")
+    return {0.05, "change speed and turn rate often: starts, stops and changing arcs"};
+  if (name.size() > 4 && name.compare(name.size() - 4, 4, ".yaw") == 0)
+    return {0.087, "drive straight as well as turning"};
+  return {0.05, "turn while driving: the sensor's position shows only when the robot rotates"};
+}
+
+OdometryError HeldoutOdometry(const std::vector<Interval>& intervals, const State& state,
+                              double window_s) {
+  OdometryError out;
+  double sum_t2 = 0, sum_h2 = 0, sum_t = 0;
+  generic::Pose<double> measured{0, 0, 0}, predicted{0, 0, 0};
+  int64_t window_start = 0, last_end = 0;
+  double distance = 0.0;
+  bool open = false;
+  auto close = [&]() {
+    if (!open) return;
+    const Pose2 d = Between({predicted.x, predicted.y, predicted.theta},
+                            {measured.x, measured.y, measured.theta});
+    const double t = std::hypot(d.x, d.y);
+    sum_t2 += t * t;
+    sum_t += t;
+    sum_h2 += d.theta * d.theta;
+    out.distance_m += distance;
+    ++out.windows;
+    open = false;
+  };
+  for (const Interval& it : intervals) {
+    if (!it.heldout) continue;
+    const SensorMotion& m = *it.motion;
+    if (open && m.utime_start != last_end) open = false;  // a gap: start over
+    if (!open) {
+      measured = predicted = {0, 0, 0};
+      distance = 0.0;
+      window_start = m.utime_start;
+      open = true;
+    }
+    const Eigen::Vector3d e = Error(it, state);
+    const generic::Pose<double> z{m.delta.x, m.delta.y, m.delta.theta};
+    measured = generic::Compose(measured, z);
+    predicted = generic::Compose(predicted, generic::Pose<double>{z.x - e[0], z.y - e[1], z.theta - e[2]});
+    distance += std::hypot(z.x, z.y);
+    last_end = m.utime_end;
+    if ((last_end - window_start) * 1e-6 >= window_s) close();
+  }
+  if (out.windows > 0) {
+    out.rms_translation_m = std::sqrt(sum_t2 / out.windows);
+    out.rms_heading_rad = std::sqrt(sum_h2 / out.windows);
+    out.error_per_metre = out.distance_m > 0 ? sum_t / out.distance_m : 0.0;
+  }
+  return out;
+}
+
+}  // namespace
+
+const char* MotionSourceName(MotionSource source) {
+  return source == MotionSource::kPose ? "pose" : "lidar2d";
+}
+
+CalibrationResult Calibrate(const RobotDescription& robot, const WheelTrack& wheels,
+                            const std::vector<SensorMotion>& motions, MotionSource source,
+                            const CalibrationOptions& options, const std::string& origin) {
+  CalibrationResult result;
+  result.drive = robot.drive;
+  result.source = source;
+  result.param_names = ParamNames(robot.drive);
+  const int num_params = static_cast<int>(result.param_names.size());
+  const int num_wheels = static_cast<int>(WheelRoles(robot.drive).size());
+  const std::optional<Mount2d>& nominal_mount = source == MotionSource::kPose ? robot.pose : robot.lidar2d;
+  const std::string mount_name = MotionSourceName(source);
+
+  // Intervals the encoders cover (with room for the time offset), in stamp order.
+  const double margin_us = options.estimate_time_offset ? options.max_time_offset_s * 1e6 : 0.0;
+  std::vector<const SensorMotion*> usable;
+  for (const SensorMotion& m : motions) {
+    if (!m.valid || m.utime_end <= m.utime_start) {
+      ++result.residual.invalid;
+    } else if (m.degenerate) {
+      ++result.residual.degenerate;
+    } else if (!wheels.Covers(m.utime_start - margin_us, m.utime_end + margin_us)) {
+      ++result.residual.invalid;
+    } else {
+      usable.push_back(&m);
+    }
+  }
+  std::stable_sort(usable.begin(), usable.end(), [](const SensorMotion* a, const SensorMotion* b) {
+    return a->utime_start < b->utime_start;
+  });
+  const std::size_t num_fit =
+      static_cast<std::size_t>(std::floor(usable.size() * std::clamp(options.fit_fraction, 0.0, 1.0)));
+  if (num_fit < 20) {
+    throw InputError(origin, "sensor motions",
+                     "only " + std::to_string(num_fit) + " usable intervals with encoder data (" +
+                         std::to_string(motions.size()) + " motions, " +
+                         std::to_string(result.residual.degenerate) + " degenerate, " +
+                         std::to_string(result.residual.invalid) +
+                         " failed or outside the encoder data); at least 20 are needed");
+  }
+
+  // Cost of every interval: the encoder samples spanning it, times relative to its start.
+  std::vector<Interval> intervals;
+  std::vector<MotionInterval> closed_form_input;
+  const auto& samples = wheels.samples();
+  for (std::size_t k = 0; k < usable.size(); ++k) {
+    const SensorMotion& m = *usable[k];
+    const double t0 = m.utime_start - margin_us, t1 = m.utime_end + margin_us;
+    auto first = std::upper_bound(samples.begin(), samples.end(), t0,
+                                  [](double t, const WheelSample& s) { return t < s.utime; });
+    if (first != samples.begin()) --first;
+    auto last = std::lower_bound(samples.begin(), samples.end(), t1,
+                                 [](const WheelSample& s, double t) { return s.utime < t; });
+    if (last == samples.end()) --last;
+    std::vector<WheelSample> span(first, last + 1);
+    std::vector<double> times;
+    for (const WheelSample& s : span) times.push_back((s.utime - m.utime_start) * 1e-6);
+    Interval it;
+    it.motion = &m;
+    it.heldout = k >= num_fit;
+    it.cost = std::make_unique<IntervalCost>(robot.drive, num_wheels, std::move(times), std::move(span),
+                                             (m.utime_end - m.utime_start) * 1e-6, m.delta,
+                                             SqrtInformation(m.covariance));
+    it.function.reset(num_params == 3 ? MakeFunction<3>(it.cost.get()) : MakeFunction<5>(it.cost.get()));
+    if (!it.heldout) closed_form_input.push_back({wheels.Increments(m.utime_start, m.utime_end), m.delta});
+    intervals.push_back(std::move(it));
+  }
+
+  // 1. Closed-form first estimate; the nominal values where it is not available or implausible.
+  State nominal;
+  for (int i = 0; i < num_params; ++i) nominal.params[i] = robot.params.at(result.param_names[i]);
+  if (nominal_mount) {
+    nominal.mount[0] = nominal_mount->x;
+    nominal.mount[1] = nominal_mount->y;
+    nominal.mount[2] = nominal_mount->yaw;
+  }
+  State state = nominal;
+  const ClosedFormEstimate cf = ClosedFormCalibration(robot.drive, robot.params, closed_form_input);
+  if (cf.ok) {
+    for (int i = 0; i < num_params; ++i) result.closed_form[result.param_names[i]] = cf.params.at(result.param_names[i]);
+    result.closed_form["mount_x"] = cf.mount.x;
+    result.closed_form["mount_y"] = cf.mount.y;
+    result.closed_form["mount_yaw"] = cf.mount.theta;
+    // Plausible: every length within a factor of two of nominal, same sign.
+    bool plausible = true;
+    for (int i = 0; i < num_params; ++i) {
+      const std::string& name = result.param_names[i];
+      const double v = cf.params.at(name), n = nominal.params[i];
+      if (name.find("offset") == std::string::npos && std::abs(n) > 1e-6)
+        plausible = plausible && v / n > 0.5 && v / n < 2.0;
+    }
+    if (plausible) {
+      for (int i = 0; i < num_params; ++i) state.params[i] = cf.params.at(result.param_names[i]);
+      state.mount[0] = cf.mount.x;
+      state.mount[1] = cf.mount.y;
+      state.mount[2] = cf.mount.theta;
+    } else {
+      result.closed_form_note = "closed form far from nominal; refinement started from nominal";
+    }
+  } else {
+    result.closed_form_note = "closed form not available: " + cf.problem;
+  }
+
+  // 2. Robust fit with a scale from the residuals at the start, then outliers, then the
+  //    plain maximum-likelihood refit on the inliers.
+  auto robust_scale = [&]() {
+    std::vector<double> chi2;
+    for (const Interval& it : intervals)
+      if (!it.heldout && !it.outlier) chi2.push_back(Chi2(it, state));
+    return std::sqrt(std::max(Median(chi2) / kChi2Median3, 1e-12));
+  };
+  Solve(intervals, &state, num_params, robust_scale(), true, options.estimate_time_offset,
+        options.max_time_offset_s);
+  double scale = 1.0;
+  for (int round = 0; round < 2; ++round) {
+    scale = robust_scale();
+    for (Interval& it : intervals) {
+      if (!it.heldout) it.outlier = Chi2(it, state) / (scale * scale) > options.outlier_chi2;
+    }
+    Solve(intervals, &state, num_params, scale, false, options.estimate_time_offset,
+          options.max_time_offset_s);
+  }
+
+  // 3. Fisher information from the whitened Jacobians; covariance scaled by the variance factor.
+  const int dim = num_params + 3 + (options.estimate_time_offset ? 1 : 0);
+  Eigen::MatrixXd information = Eigen::MatrixXd::Zero(dim, dim);
+  double chi2_sum = 0.0;
+  int inliers = 0;
+  Eigen::Vector3d sum_e2 = Eigen::Vector3d::Zero();
+  for (const Interval& it : intervals) {
+    IntervalResidual r;
+    r.utime_start = it.motion->utime_start;
+    r.utime_end = it.motion->utime_end;
+    r.error = Error(it, state);
+    r.chi2 = Chi2(it, state) / (scale * scale);
+    r.outlier = it.outlier;
+    r.heldout = it.heldout;
+    result.intervals.push_back(r);
+    if (it.heldout || it.outlier) continue;
+    double residual[3];
+    std::vector<double> jp_compact(3 * num_params);  // row-major 3 x num_params
+    Eigen::Matrix<double, 3, 3, Eigen::RowMajor> jm;
+    Eigen::Matrix<double, 3, 1> jo;
+    double* jacobians[3] = {jp_compact.data(), jm.data(), jo.data()};
+    const double* values[3] = {state.params, state.mount, state.offset};
+    it.function->Evaluate(values, residual, jacobians);
+    Eigen::MatrixXd J(3, dim);
+    for (int row = 0; row < 3; ++row) {
+      for (int c = 0; c < num_params; ++c) J(row, c) = jp_compact[row * num_params + c];
+      for (int c = 0; c < 3; ++c) J(row, num_params + c) = jm(row, c);
+      if (options.estimate_time_offset) J(row, num_params + 3) = jo(row);
+    }
+    J /= scale;
+    information += J.transpose() * J;
+    chi2_sum += r.chi2;
+    sum_e2 += r.error.cwiseAbs2();
+    ++inliers;
+  }
+  result.residual.intervals = static_cast<int>(num_fit);
+  for (const Interval& it : intervals) result.residual.outliers += (!it.heldout && it.outlier) ? 1 : 0;
+  result.residual.rms_x = std::sqrt(sum_e2[0] / inliers);
+  result.residual.rms_y = std::sqrt(sum_e2[1] / inliers);
+  result.residual.rms_yaw = std::sqrt(sum_e2[2] / inliers);
+  const double variance_factor = chi2_sum / std::max(1, 3 * inliers - dim);
+  result.residual.variance_factor = variance_factor * scale * scale;
+  information /= variance_factor;
+
+  for (int i = 0; i < num_params; ++i) result.estimated_names.push_back(result.param_names[i]);
+  for (const char* axis : {".x", ".y", ".yaw"}) result.estimated_names.push_back(mount_name + axis);
+  if (options.estimate_time_offset) result.estimated_names.push_back("time_offset");
+
+  // Observability: eigen-analysis of the correlation-normalised information.
+  const Eigen::VectorXd d = information.diagonal().cwiseMax(1e-300).cwiseSqrt();
+  const Eigen::MatrixXd correlation = d.asDiagonal().inverse() * information * d.asDiagonal().inverse();
+  Eigen::SelfAdjointEigenSolver<Eigen::MatrixXd> eig(correlation);
+  const double lmin = std::max(eig.eigenvalues()[0], 0.0), lmax = eig.eigenvalues()[dim - 1];
+  result.condition = lmin > 0 ? lmax / lmin : INFINITY;
+  // Pseudo-inverse restricted to the determined directions, so a singular direction shows as
+  // an unbounded sigma rather than a crash.
+  Eigen::VectorXd inv = Eigen::VectorXd::Zero(dim);
+  for (int i = 0; i < dim; ++i)
+    inv[i] = eig.eigenvalues()[i] > 1e-12 * lmax ? 1.0 / eig.eigenvalues()[i] : 0.0;
+  const Eigen::MatrixXd correlation_inverse =
+      eig.eigenvectors() * inv.asDiagonal() * eig.eigenvectors().transpose();
+  result.covariance = d.asDiagonal().inverse() * correlation_inverse * d.asDiagonal().inverse();
+  std::vector<double> sigma(dim);
+  for (int i = 0; i < dim; ++i) {
+    sigma[i] = std::sqrt(std::max(result.covariance(i, i), 0.0));
+    for (int e = 0; e < dim; ++e) {  // a parameter in a singular direction is not determined
+      if (inv[e] == 0.0 && std::abs(eig.eigenvectors()(i, e)) > 0.3) sigma[i] = INFINITY;
+    }
+    if (d[i] <= 1e-150) sigma[i] = INFINITY;
+  }
+
+  auto estimate = [&](int i, double value, double nominal_value) {
+    return Estimate{value, sigma[i], nominal_value};
+  };
+  for (int i = 0; i < num_params; ++i)
+    result.params[result.param_names[i]] = estimate(i, state.params[i], nominal.params[i]);
+  result.mount_x = estimate(num_params, state.mount[0], nominal.mount[0]);
+  result.mount_y = estimate(num_params + 1, state.mount[1], nominal.mount[1]);
+  result.mount_yaw = estimate(num_params + 2, WrapAngle(state.mount[2]), nominal.mount[2]);
+  if (options.estimate_time_offset) result.time_offset = estimate(num_params + 3, state.offset[0], 0.0);
+
+  // Refuse what the data cannot determine; list what they determine poorly.
+  std::vector<std::string> refused, remedies;
+  const double nominal_values[] = {nominal.params[0], nominal.params[1], nominal.params[2],
+                                   nominal.params[3], nominal.params[4]};
+  for (int i = 0; i < dim; ++i) {
+    const std::string& name = result.estimated_names[i];
+    const Requirement req = RequirementFor(robot.drive, name, i < num_params ? nominal_values[i] : 0.0);
+    if (!(sigma[i] <= req.refuse)) {
+      refused.push_back(name);
+      if (std::find(remedies.begin(), remedies.end(), req.remedy) == remedies.end())
+        remedies.push_back(req.remedy);
+    } else if (sigma[i] > 0.1 * req.refuse) {
+      result.weak.push_back(name);
+    }
+  }
+  if (options.check_observability && !refused.empty()) {
+    std::ostringstream what, remedy;
+    what << origin << ": the recording cannot determine ";
+    for (std::size_t i = 0; i < refused.size(); ++i) what << (i ? ", " : "") << refused[i];
+    for (std::size_t i = 0; i < remedies.size(); ++i) remedy << (i ? "; " : "") << remedies[i];
+    throw UnobservableError(what.str(), remedy.str());
+  }
+  result.weak.insert(result.weak.end(), refused.begin(), refused.end());
+
+  // Held-out comparison of the nominal and the calibrated model.
+  if (num_fit < intervals.size()) {
+    HeldoutComparison h;
+    h.intervals = static_cast<int>(intervals.size() - num_fit);
+    h.nominal = HeldoutOdometry(intervals, nominal, options.heldout_window_s);
+    h.calibrated = HeldoutOdometry(intervals, state, options.heldout_window_s);
+    result.heldout = h;
+  }
+  return result;
+}
+
+RobotDescription Calibrated(const RobotDescription& robot, const CalibrationResult& result) {
+  RobotDescription out = robot;
+  for (const auto& [name, e] : result.params) out.params[name] = e.value;
+  std::optional<Mount2d>& mount = result.source == MotionSource::kPose ? out.pose : out.lidar2d;
+  if (!mount) mount = Mount2d{result.source == MotionSource::kPose ? "POSE" : "SCAN", 0, 0, 0};
+  mount->x = result.mount_x.value;
+  mount->y = result.mount_y.value;
+  mount->yaw = result.mount_yaw.value;
+  return out;
+}
+
+}  // namespace calib
