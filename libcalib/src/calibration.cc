@@ -407,9 +407,16 @@ CalibrationResult Calibrate(const RobotDescription& robot, const WheelTrack& whe
           options.max_time_offset_s);
   }
 
-  // 3. Fisher information from the whitened Jacobians; covariance scaled by the variance factor.
+  // 3. Covariance: the sandwich H^-1 M H^-1 with H the information of the whitened Jacobians
+  //    and M the spread of the per-interval scores g_k = J_k^T r_k, including the products of
+  //    neighbouring intervals. Neighbours share an observation (a scan, a pose), so their
+  //    errors are correlated: a shared pose's noise cancels in the sum of two motions, and
+  //    treating them as independent would make every sigma wrong.
   const int dim = num_params + 3 + (options.estimate_time_offset ? 1 : 0);
   Eigen::MatrixXd information = Eigen::MatrixXd::Zero(dim, dim);
+  Eigen::MatrixXd scores_spread = Eigen::MatrixXd::Zero(dim, dim);
+  Eigen::VectorXd previous_score;
+  int64_t previous_end = -1;
   double chi2_sum = 0.0;
   int inliers = 0;
   Eigen::Vector3d sum_e2 = Eigen::Vector3d::Zero();
@@ -438,6 +445,12 @@ CalibrationResult Calibrate(const RobotDescription& robot, const WheelTrack& whe
     }
     J /= scale;
     information += J.transpose() * J;
+    const Eigen::VectorXd score = J.transpose() * (Eigen::Vector3d(residual[0], residual[1], residual[2]) / scale);
+    scores_spread += score * score.transpose();
+    if (previous_end == it.motion->utime_start && previous_score.size() == dim)
+      scores_spread += score * previous_score.transpose() + previous_score * score.transpose();
+    previous_score = score;
+    previous_end = it.motion->utime_end;
     chi2_sum += r.chi2;
     sum_e2 += r.error.cwiseAbs2();
     ++inliers;
@@ -449,7 +462,8 @@ CalibrationResult Calibrate(const RobotDescription& robot, const WheelTrack& whe
   result.residual.rms_yaw = std::sqrt(sum_e2[2] / inliers);
   const double variance_factor = chi2_sum / std::max(1, 3 * inliers - dim);
   result.residual.variance_factor = variance_factor * scale * scale;
-  information /= variance_factor;
+  // The sample spread is a little small by the parameters fitted; the usual dof correction.
+  scores_spread *= double(3 * inliers) / std::max(1, 3 * inliers - dim);
 
   for (int i = 0; i < num_params; ++i) result.estimated_names.push_back(result.param_names[i]);
   for (const char* axis : {".x", ".y", ".yaw"}) result.estimated_names.push_back(mount_name + axis);
@@ -468,7 +482,14 @@ CalibrationResult Calibrate(const RobotDescription& robot, const WheelTrack& whe
     inv[i] = eig.eigenvalues()[i] > 1e-12 * lmax ? 1.0 / eig.eigenvalues()[i] : 0.0;
   const Eigen::MatrixXd correlation_inverse =
       eig.eigenvectors() * inv.asDiagonal() * eig.eigenvectors().transpose();
-  result.covariance = d.asDiagonal().inverse() * correlation_inverse * d.asDiagonal().inverse();
+  const Eigen::MatrixXd information_inverse =
+      d.asDiagonal().inverse() * correlation_inverse * d.asDiagonal().inverse();
+  // The neighbour products can make the spread indefinite in a small sample: clip at zero.
+  Eigen::SelfAdjointEigenSolver<Eigen::MatrixXd> spread_eig(scores_spread);
+  const Eigen::MatrixXd spread = spread_eig.eigenvectors() *
+                                 spread_eig.eigenvalues().cwiseMax(0.0).asDiagonal() *
+                                 spread_eig.eigenvectors().transpose();
+  result.covariance = information_inverse * spread * information_inverse;
   std::vector<double> sigma(dim);
   for (int i = 0; i < dim; ++i) {
     sigma[i] = std::sqrt(std::max(result.covariance(i, i), 0.0));

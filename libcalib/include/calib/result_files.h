@@ -1,0 +1,25 @@
+#pragma once
+// The result files of spec/cli.md: RESULT.json of `solve`, and the robot file
+// written back with calibrated values (spec/robot.md: `std:` and `source:`).
+// Files are written atomically: a reader sees the old file or the new one.
+
+#include <string>
+
+#include "calib/calibration.h"
+#include "calib/robot.h"
+
+namespace calib {
+
+// RESULT.json text (spec/cli.md), with the closed-form estimate and the held-out
+// comparison as extra keys.
+std::string CalibrationResultJson(const CalibrationResult& result);
+
+// The robot file `robot.source_file` with the calibrated values in place, their
+// standard deviations under `std:` and the log under `source:`. Other keys are kept.
+std::string CalibratedRobotYaml(const RobotDescription& robot, const CalibrationResult& result,
+                                const std::string& log_path);
+
+// Writes PATH.partial and renames it to PATH. Throws InputError naming the path.
+void WriteFileAtomically(const std::string& path, const std::string& text);
+
+}  // namespace calib

@@ -1,0 +1,106 @@
+#include "calib/result_files.h"
+
+#include <cerrno>
+#include <cmath>
+#include <cstdio>
+#include <cstring>
+
+#include <nlohmann/json.hpp>
+#include <yaml-cpp/yaml.h>
+
+#include "calib/errors.h"
+
+namespace calib {
+namespace {
+
+// JSON has no infinity: an undetermined sigma is written as null.
+nlohmann::json Number(double v) { return std::isfinite(v) ? nlohmann::json(v) : nlohmann::json(); }
+
+nlohmann::json EstimateJson(const Estimate& e, bool with_nominal) {
+  nlohmann::json j = {{"value", Number(e.value)}, {"std", Number(e.std)}};
+  if (with_nominal) j["nominal"] = Number(e.nominal);
+  return j;
+}
+
+nlohmann::json OdometryJson(const OdometryError& e) {
+  return {{"windows", e.windows},
+          {"distance_m", e.distance_m},
+          {"rms_translation_m", e.rms_translation_m},
+          {"rms_heading_rad", e.rms_heading_rad},
+          {"error_per_metre", e.error_per_metre}};
+}
+
+}  // namespace
+
+std::string CalibrationResultJson(const CalibrationResult& r) {
+  nlohmann::json j;
+  j["drive"] = DriveTypeName(r.drive);
+  j["params"] = nlohmann::json::object();
+  for (const std::string& name : r.param_names) j["params"][name] = EstimateJson(r.params.at(name), true);
+  nlohmann::json mount = {{"x", EstimateJson(r.mount_x, true)},
+                          {"y", EstimateJson(r.mount_y, true)},
+                          {"yaw", EstimateJson(r.mount_yaw, true)}};
+  if (r.source == MotionSource::kLidar2d) {
+    mount["time_offset"] = r.time_offset ? EstimateJson(*r.time_offset, false)
+                                         : nlohmann::json{{"value", 0.0}, {"std", 0.0}};
+  }
+  j[MotionSourceName(r.source)] = mount;
+  j["residual"] = {{"intervals", r.residual.intervals},
+                   {"outliers", r.residual.outliers},
+                   {"degenerate", r.residual.degenerate},
+                   {"invalid", r.residual.invalid},
+                   {"rms_x", r.residual.rms_x},
+                   {"rms_y", r.residual.rms_y},
+                   {"rms_yaw", r.residual.rms_yaw},
+                   {"variance_factor", r.residual.variance_factor}};
+  j["observability"] = {{"condition", Number(r.condition)}, {"weak", r.weak}};
+  nlohmann::json closed_form = nlohmann::json::object();
+  for (const auto& [name, value] : r.closed_form) closed_form[name] = Number(value);
+  j["closed_form"] = closed_form;
+  if (!r.closed_form_note.empty()) j["closed_form_note"] = r.closed_form_note;
+  if (r.heldout) {
+    j["heldout"] = {{"intervals", r.heldout->intervals},
+                    {"nominal", OdometryJson(r.heldout->nominal)},
+                    {"calibrated", OdometryJson(r.heldout->calibrated)}};
+  }
+  return j.dump(2) + "\n";
+}
+
+std::string CalibratedRobotYaml(const RobotDescription& robot, const CalibrationResult& r,
+                                const std::string& log_path) {
+  YAML::Node root = YAML::LoadFile(robot.source_file);
+  YAML::Node std_node;
+  for (const auto& [name, e] : r.params) {
+    root["params"][name] = e.value;
+    std_node["params"][name] = e.std;
+  }
+  const std::string mount = MotionSourceName(r.source);
+  if (!root[mount]) root[mount]["channel"] = r.source == MotionSource::kPose ? "POSE" : "SCAN";
+  root[mount]["x"] = r.mount_x.value;
+  root[mount]["y"] = r.mount_y.value;
+  root[mount]["yaw"] = r.mount_yaw.value;
+  std_node[mount]["x"] = r.mount_x.std;
+  std_node[mount]["y"] = r.mount_y.std;
+  std_node[mount]["yaw"] = r.mount_yaw.std;
+  root["std"] = std_node;
+  root["source"] = log_path;
+  YAML::Emitter out;
+  out.SetDoublePrecision(9);
+  out << root;
+  return std::string("# Calibrated by agvcal solve from ") + log_path + "\n" + out.c_str() + "\n";
+}
+
+void WriteFileAtomically(const std::string& path, const std::string& text) {
+  const std::string partial = path + ".partial";
+  std::FILE* f = std::fopen(partial.c_str(), "wb");
+  if (!f) throw InputError(path, "output file", std::strerror(errno));
+  const bool written = std::fwrite(text.data(), 1, text.size(), f) == text.size();
+  const bool closed = std::fclose(f) == 0;
+  if (!written || !closed || std::rename(partial.c_str(), path.c_str()) != 0) {
+    const std::string problem = std::strerror(errno);
+    std::remove(partial.c_str());
+    throw InputError(path, "output file", "could not write: " + problem);
+  }
+}
+
+}  // namespace calib

@@ -1,0 +1,79 @@
+#include "calib/solve_log.h"
+
+#include "calib/errors.h"
+#include "calib/log_summary.h"
+#include "calib/messages.h"
+#include "calib/recording.h"
+
+namespace calib {
+
+namespace {
+
+std::string EventPlace(const LogEvent& event) {
+  return "event " + std::to_string(event.event_number) + " (" + event.channel + ")";
+}
+
+}  // namespace
+
+MotionSource ChooseMotionSource(const RobotDescription& robot, const std::string& log_path,
+                                std::optional<MotionSource> requested) {
+  const LogSummary summary = SummarizeLog(log_path);
+  auto has = [&](const std::string& channel) {
+    const auto it = summary.channels.find(channel);
+    return it != summary.channels.end() && it->second.count > 0;
+  };
+  if (!has(kWheelsChannel))
+    throw InputError(log_path, "channel " + std::string(kWheelsChannel), "not in the recording");
+  const std::string scan = robot.lidar2d ? robot.lidar2d->channel : kScanChannel;
+  const std::string pose = robot.pose ? robot.pose->channel : kPoseChannel;
+  if (requested == MotionSource::kLidar2d || (!requested && robot.lidar2d && has(scan))) {
+    if (!has(scan))
+      throw InputError(log_path, "channel " + scan, "not in the recording (needed for the 2D lidar)");
+    return MotionSource::kLidar2d;
+  }
+  if (!has(pose)) {
+    throw InputError(log_path, "channels " + scan + " / " + pose,
+                     "neither scans of the robot's 2D lidar nor external poses in the recording");
+  }
+  return MotionSource::kPose;
+}
+
+CalibrationData ReadCalibrationData(const RobotDescription& robot, const std::string& log_path,
+                                    MotionSource source,
+                                    const std::function<void(const std::string&)>& progress) {
+  CalibrationData data(robot);
+  const std::string pose_channel = robot.pose ? robot.pose->channel : kPoseChannel;
+  LogReader reader(log_path);
+  LogEvent event;
+  int64_t count = 0;
+  while (reader.Next(&event)) {
+    const int size = static_cast<int>(event.data.size());
+    if (event.channel == kWheelsChannel) {
+      agvcal::wheel_state_t m;
+      if (!Decode(event.data.data(), size, &m))
+        throw InputError(log_path, EventPlace(event), "does not decode as wheel_state_t");
+      data.AddWheels(m, log_path + ": " + EventPlace(event));
+    } else if (source == MotionSource::kPose && event.channel == pose_channel) {
+      agvcal::pose2d_t m;
+      if (!Decode(event.data.data(), size, &m))
+        throw InputError(log_path, EventPlace(event), "does not decode as pose2d_t");
+      data.AddPose(m);
+    }
+    if (progress && ++count % 200000 == 0) progress("read " + std::to_string(count) + " messages");
+  }
+  return data;
+}
+
+CalibrationResult SolveLog(const RobotDescription& robot, const std::string& log_path,
+                           const SolveLogOptions& options) {
+  const MotionSource source = ChooseMotionSource(robot, log_path, options.source);
+  const CalibrationData data = ReadCalibrationData(robot, log_path, source, options.progress);
+  if (options.progress) {
+    options.progress(std::to_string(data.wheels().size()) + " wheel states, " +
+                     std::to_string(data.motions().size()) + " " + MotionSourceName(source) +
+                     " motions; calibrating");
+  }
+  return Calibrate(robot, data.wheels(), data.motions(), source, options.calibration, log_path);
+}
+
+}  // namespace calib
