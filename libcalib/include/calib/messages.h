@@ -7,7 +7,10 @@
 #include <string>
 #include <vector>
 
+#include "agvcal/calib_estimate_t.hpp"
+#include "agvcal/calib_residual_t.hpp"
 #include "agvcal/drive_command_t.hpp"
+#include "calib/calibration.h"
 #include "calib/drive_command.h"
 #include "calib/robot.h"
 
@@ -23,6 +26,8 @@ inline constexpr const char* kPoseChannel = "POSE";
 inline constexpr const char* kGroundTruthChannel = "GROUND_TRUTH";
 inline constexpr const char* kHeartbeatChannel = "HEARTBEAT";
 inline constexpr const char* kCommanderStatusChannel = "COMMANDER_STATUS";
+inline constexpr const char* kCalibEstimateChannel = "CALIB_ESTIMATE";
+inline constexpr const char* kCalibResidualsChannel = "CALIB_RESIDUALS";
 
 // A command for the robot's wheels, named as in the robot file.
 agvcal::drive_command_t ToMessage(const DriveCommand& command, const RobotDescription& robot,
@@ -32,6 +37,11 @@ agvcal::drive_command_t ToMessage(const DriveCommand& command, const RobotDescri
 // robot is missing from a mode-1 command (`origin` names the source).
 DriveCommand FromMessage(const agvcal::drive_command_t& message, const RobotDescription& robot,
                          const std::string& origin);
+
+// The live solver's estimate; `status` and `message` as in calib_estimate_t.
+agvcal::calib_estimate_t ToMessage(const CalibrationResult& result, int64_t utime,
+                                   const std::string& status);
+agvcal::calib_residual_t ToMessage(const IntervalResidual& residual);
 
 // Encodes any lcm-gen message into bytes.
 template <typename Message>
