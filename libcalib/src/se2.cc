@@ -34,6 +34,21 @@ Pose2 ExpTwist(const Twist2& twist, double dt) {
   return {a * dx - b * dy, b * dx + a * dy, WrapAngle(dtheta)};
 }
 
+Twist2 LogTwist(const Pose2& motion) {
+  const double dtheta = WrapAngle(motion.theta);
+  // ExpTwist maps (vx, vy) through [[a, -b], [b, a]]; invert that 2x2 rotation-scaling.
+  double a, b;
+  if (std::abs(dtheta) < 1e-6) {
+    a = 1.0 - dtheta * dtheta / 6.0;
+    b = dtheta / 2.0;
+  } else {
+    a = std::sin(dtheta) / dtheta;
+    b = (1.0 - std::cos(dtheta)) / dtheta;
+  }
+  const double n = a * a + b * b;
+  return {(a * motion.x + b * motion.y) / n, (a * motion.y - b * motion.x) / n, dtheta};
+}
+
 Pose2 Interpolate(const Pose2& a, const Pose2& b, double s) {
   return {a.x + s * (b.x - a.x), a.y + s * (b.y - a.y),
           WrapAngle(a.theta + s * WrapAngle(b.theta - a.theta))};

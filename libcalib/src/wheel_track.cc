@@ -33,6 +33,21 @@ WheelSample WheelSampleFromMessage(const agvcal::wheel_state_t& message,
   return sample;
 }
 
+agvcal::wheel_state_t WheelStateMessage(const WheelSample& sample, const RobotDescription& robot,
+                                        const std::vector<double>& velocity) {
+  const std::vector<std::string>& roles = WheelRoles(robot.drive);
+  agvcal::wheel_state_t msg{};
+  msg.utime = sample.utime;
+  msg.num_wheels = static_cast<int32_t>(roles.size());
+  for (std::size_t i = 0; i < roles.size(); ++i) {
+    msg.name.push_back(robot.wheel_name(roles[i]));
+    msg.position.push_back(sample.position.at(i));
+    msg.velocity.push_back(velocity.empty() ? std::nan("") : velocity.at(i));
+    msg.steer.push_back(i < sample.steer.size() ? sample.steer[i] : 0.0);
+  }
+  return msg;
+}
+
 bool WheelTrack::Append(const WheelSample& sample) {
   if (!samples_.empty() && sample.utime <= samples_.back().utime) return false;
   samples_.push_back(sample);

@@ -15,6 +15,7 @@ Commands:
   simulate SIM.yaml OUT.log   write a simulated recording (commander + simulator, offline)
   info LOG                    channels, message counts, rates and time span of a recording
   solve ROBOT.yaml LOG        calibrate drive parameters and sensor mount from a recording
+  import FORMAT INPUT OUT.log turn a dataset (carmen, mines, lego, optiodom, pose-csv) into a recording
 Run 'agvcal COMMAND --help' for a command's options.
 
 Exit status: 0 success, 2 unusable input (names the file, place and problem),
@@ -30,6 +31,7 @@ int Run(int argc, char** argv) {
       {"simulate", agvcal_cli::Simulate},
       {"info", agvcal_cli::Info},
       {"solve", agvcal_cli::Solve},
+      {"import", agvcal_cli::Import},
   };
   const auto it = kCommands.find(argv[1]);
   if (it == kCommands.end())

@@ -7,5 +7,6 @@ namespace agvcal_cli {
 int Simulate(int argc, char** argv);
 int Info(int argc, char** argv);
 int Solve(int argc, char** argv);
+int Import(int argc, char** argv);
 
 }  // namespace agvcal_cli

@@ -26,6 +26,11 @@ struct WheelSample {
 WheelSample WheelSampleFromMessage(const agvcal::wheel_state_t& message,
                                    const RobotDescription& robot, const std::string& origin);
 
+// The message of a sample, wheels named as in the robot file: the inverse of
+// WheelSampleFromMessage. `velocity` (rad/s, role order) may be empty: NaN, not reported.
+agvcal::wheel_state_t WheelStateMessage(const WheelSample& sample, const RobotDescription& robot,
+                                        const std::vector<double>& velocity = {});
+
 class WheelTrack {
  public:
   // Appends a sample. Stamps must increase: a sample at or before the last one
