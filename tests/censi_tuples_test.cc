@@ -14,6 +14,7 @@
 #include <nlohmann/json.hpp>
 
 #include "calib/calibration.h"
+#include "calib/text_reader.h"
 
 namespace calib {
 namespace {
@@ -23,13 +24,10 @@ std::string DataDir() { return std::string(AGVCAL_SOURCE_DIR) + "/../shared/data
 // Each tuple becomes one interval of constant wheel speeds; a gap separates tuples, so
 // no two intervals share an observation (the tuples' scan pairs need not be consecutive).
 void LoadTuples(const std::string& path, WheelTrack* track, std::vector<SensorMotion>* motions) {
-  std::FILE* pipe = ::popen(("gzip -dc '" + path + "'").c_str(), "r");
-  ASSERT_NE(pipe, nullptr);
-  std::string text;
-  char buffer[65536];
-  for (std::size_t n; (n = std::fread(buffer, 1, sizeof buffer, pipe)) > 0;) text.append(buffer, n);
-  ::pclose(pipe);
-  // One JSON object per tuple (some lines hold two).
+  // One JSON object per tuple; some lines hold two.
+  TextReader reader(path);
+  std::string text, line;
+  while (reader.Next(&line)) text += line + "\n";
   std::istringstream in(text);
   int64_t t = 0;
   double left = 0, right = 0;
