@@ -1,0 +1,42 @@
+#!/usr/bin/env bash
+# Calibrates every real recording of ../shared/data on the first half and compares the
+# calibrated with the nominal model's odometry on the second half (docs/calibration.md):
+#   scripts/real-data-table.sh [WORKDIR]
+# Prints a Markdown table; imports into WORKDIR (default a temporary directory).
+set -uo pipefail
+here=$(cd "$(dirname "$0")/.." && pwd)
+agvcal=${AGVCAL_BIN:-$here/build}/agvcal
+work=${1:-$(mktemp -d)}
+mkdir -p "$work"
+robots=$here/config/robots/datasets
+"$here/scripts/import-datasets.sh" "$work" > "$work/import.txt" || { cat "$work/import.txt"; exit 2; }
+
+echo "| recording | robot file | source | parameters (nominal → calibrated ± 1σ) | held-out error per metre, nominal → calibrated |"
+echo "|---|---|---|---|---|"
+for log in "$work"/*.log; do
+  name=$(basename "$log" .log)
+  case $name in
+    mit_csail) robot=mit_csail.yaml ;;
+    mines_*) robot=mines_rover.yaml ;;
+    lego_*) robot=lego_robot.yaml ;;
+    optiodom_tricycle_*) robot=optiodom_tricycle.yaml ;;
+    optiodom_diff_*) robot=optiodom_diff.yaml ;;
+    *) continue ;;
+  esac
+  out=$work/$name.json
+  if "$agvcal" solve "$robots/$robot" "$log" --fit-fraction 0.5 --time-offset --quiet --out "$out" \
+       > "$work/$name.txt" 2> "$work/$name.err"; then
+    python3 - "$out" "$name" "$robot" <<'PY'
+import json, sys
+r = json.load(open(sys.argv[1]))
+src = 'lidar2d' if 'lidar2d' in r else 'pose'
+params = ', '.join(f"{k} {v['nominal']:.4g} → {v['value']:.4g} ± {v['std']:.2g}" for k, v in r['params'].items())
+off = r[src].get('time_offset') if src == 'lidar2d' else None
+h = r.get('heldout', {})
+print(f"| {sys.argv[2]} | {sys.argv[3]} | {src} | {params} | "
+      f"{h['nominal']['error_per_metre']:.4f} → {h['calibrated']['error_per_metre']:.4f} |")
+PY
+  else
+    echo "| $name | $robot | | exit $?: $(head -c 200 "$work/$name.err" | tr '\n|' ' /') | |"
+  fi
+done
