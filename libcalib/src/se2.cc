@@ -34,6 +34,21 @@ Pose2 ExpTwist(const Twist2& twist, double dt) {
   return {a * dx - b * dy, b * dx + a * dy, WrapAngle(dtheta)};
 }
 
+Twist2 LogTwist(const Pose2& motion, double dt) {
+  const double t = motion.theta;
+  double a, b;
+  if (std::abs(t) < 1e-6) {
+    a = 1.0 - t * t / 6.0;
+    b = t / 2.0;
+  } else {
+    a = std::sin(t) / t;
+    b = (1.0 - std::cos(t)) / t;
+  }
+  // [x; y] = [a -b; b a] [vx; vy] dt.
+  const double k = 1.0 / ((a * a + b * b) * dt);
+  return {k * (a * motion.x + b * motion.y), k * (-b * motion.x + a * motion.y), t / dt};
+}
+
 Pose2 Interpolate(const Pose2& a, const Pose2& b, double s) {
   return {a.x + s * (b.x - a.x), a.y + s * (b.y - a.y),
           WrapAngle(a.theta + s * WrapAngle(b.theta - a.theta))};

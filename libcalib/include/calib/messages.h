@@ -8,8 +8,10 @@
 #include <vector>
 
 #include "agvcal/drive_command_t.hpp"
+#include "agvcal/scan_match_t.hpp"
 #include "calib/drive_command.h"
 #include "calib/robot.h"
+#include "calib/sensor_motion.h"
 
 namespace calib {
 
@@ -23,6 +25,7 @@ inline constexpr const char* kPoseChannel = "POSE";
 inline constexpr const char* kGroundTruthChannel = "GROUND_TRUTH";
 inline constexpr const char* kHeartbeatChannel = "HEARTBEAT";
 inline constexpr const char* kCommanderStatusChannel = "COMMANDER_STATUS";
+inline constexpr const char* kScanMatchChannel = "SCAN_MATCH";
 
 // A command for the robot's wheels, named as in the robot file.
 agvcal::drive_command_t ToMessage(const DriveCommand& command, const RobotDescription& robot,
@@ -32,6 +35,12 @@ agvcal::drive_command_t ToMessage(const DriveCommand& command, const RobotDescri
 // robot is missing from a mode-1 command (`origin` names the source).
 DriveCommand FromMessage(const agvcal::drive_command_t& message, const RobotDescription& robot,
                          const std::string& origin);
+
+// A scan-matcher result (channel SCAN_MATCH) and back. FromMessage throws
+// InputError (`origin` names the source) for a non-finite number or
+// utime_end <= utime_start.
+agvcal::scan_match_t ToMessage(const SensorMotion& motion);
+SensorMotion FromMessage(const agvcal::scan_match_t& message, const std::string& origin);
 
 // Encodes any lcm-gen message into bytes.
 template <typename Message>

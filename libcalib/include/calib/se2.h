@@ -36,6 +36,10 @@ Pose2 Between(const Pose2& a, const Pose2& b);
 // Exact, not an Euler step.
 Pose2 ExpTwist(const Twist2& twist, double dt);
 
+// Inverse of ExpTwist: the constant body twist that moves by `motion` in `dt`
+// seconds (dt > 0; |motion.theta| < pi).
+Twist2 LogTwist(const Pose2& motion, double dt);
+
 // Linear interpolation between poses, shortest way round for the heading; s in [0, 1].
 Pose2 Interpolate(const Pose2& a, const Pose2& b, double s);
 
