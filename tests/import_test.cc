@@ -112,13 +112,13 @@ TEST(ImportTest, LogTwistInvertsExpTwist) {
   std::uniform_real_distribution<double> u(-1.0, 1.0);
   for (int i = 0; i < 1000; ++i) {
     const Pose2 motion{2 * u(rng), 2 * u(rng), 3.1 * u(rng) * (i % 3 == 0 ? 1e-8 : 1.0)};
-    const Pose2 back = ExpTwist(LogTwist(motion), 1.0);
+    const Pose2 back = ExpTwist(LogTwist(motion, 1.0), 1.0);
     EXPECT_NEAR(back.x, motion.x, 1e-12);
     EXPECT_NEAR(back.y, motion.y, 1e-12);
     EXPECT_NEAR(WrapAngle(back.theta - motion.theta), 0.0, 1e-12);
   }
   // An arc tangent to x has no sideways part.
-  const Twist2 arc = LogTwist(ExpTwist({0.7, 0.0, -0.9}, 1.0));
+  const Twist2 arc = LogTwist(ExpTwist({0.7, 0.0, -0.9}, 1.0), 1.0);
   EXPECT_NEAR(arc.vx, 0.7, 1e-12);
   EXPECT_NEAR(arc.vy, 0.0, 1e-12);
   EXPECT_NEAR(arc.omega, -0.9, 1e-12);

@@ -405,5 +405,15 @@ TEST(MakeDriveModel, FromRobotDescription) {
   EXPECT_EQ(model->params(), (std::vector<double>{0.1, 0.02, 1.5, 0.12, 0.6}));  // ParamNames order
 }
 
+// LogTwist undoes ExpTwist: straight, nearly straight (series branch), arcs,
+// sideways, and a turn of almost half a revolution.
+TEST(Se2Test, LogTwistInvertsExpTwist) {
+  for (const Twist2& twist : {Twist2{0.8, 0.0, 0.0}, Twist2{0.5, 0.1, 1e-8}, Twist2{0.6, 0.0, 0.9},
+                              Twist2{-0.3, 0.2, -1.1}, Twist2{0.0, 0.4, 0.0},
+                              Twist2{0.2, 0.0, 3.0}}) {
+    for (double dt : {0.001, 0.05, 1.0}) ExpectTwistNear(LogTwist(ExpTwist(twist, dt), dt), twist);
+  }
+}
+
 }  // namespace
 }  // namespace calib

@@ -78,15 +78,6 @@ std::map<int64_t, Pose2> Truth(const MemorySink& sink) {
   return out;
 }
 
-// Inverse of ExpTwist: the constant body twist that moves by `d` in `dt`.
-Twist2 LogTwist(const Pose2& d, double dt) {
-  const double th = WrapAngle(d.theta);
-  double a = 1.0, b = 0.0;
-  if (std::abs(th) > 1e-9) a = std::sin(th) / th, b = (1.0 - std::cos(th)) / th;
-  const double det = a * a + b * b;
-  return {(a * d.x + b * d.y) / det / dt, (-b * d.x + a * d.y) / det / dt, th / dt};
-}
-
 // Body twist over each ground-truth interval, keyed by the interval's midpoint (us).
 std::map<int64_t, Twist2> TruthTwists(const MemorySink& sink) {
   const auto truth = Truth(sink);

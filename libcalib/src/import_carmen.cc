@@ -204,7 +204,7 @@ ImportSummary ImportCarmen(const std::string& path, const RobotDescription& robo
   for (std::size_t i = 0; i < poses.size(); ++i) {
     if (i > 0) {
       // The arc through both poses; its sideways part vy cannot be driven and is lost.
-      const Twist2 arc = LogTwist(Between(poses[i - 1].pose, poses[i].pose));
+      const Twist2 arc = LogTwist(Between(poses[i - 1].pose, poses[i].pose), 1.0);
       const WheelSetpoint rotation = model->Inverse(arc);
       for (int w = 0; w < 2; ++w) sample.position[w] += rotation.speed[w];
       max_sideways = std::max(max_sideways, std::abs(arc.vy));

@@ -98,4 +98,45 @@ agvcal::calib_residual_t ToMessage(const IntervalResidual& r) {
   return m;
 }
 
+agvcal::scan_match_t ToMessage(const SensorMotion& motion) {
+  agvcal::scan_match_t msg{};
+  msg.utime_start = motion.utime_start;
+  msg.utime_end = motion.utime_end;
+  msg.x = motion.delta.x;
+  msg.y = motion.delta.y;
+  msg.theta = motion.delta.theta;
+  for (int r = 0; r < 3; ++r)
+    for (int c = 0; c < 3; ++c) msg.cov[3 * r + c] = motion.covariance(r, c);
+  msg.valid = motion.valid;
+  msg.degenerate = motion.degenerate;
+  for (int i = 0; i < 3; ++i) msg.weak_direction[i] = motion.weak_direction[i];
+  msg.inlier_fraction = motion.inlier_fraction;
+  msg.rms = motion.rms;
+  return msg;
+}
+
+SensorMotion FromMessage(const agvcal::scan_match_t& message, const std::string& origin) {
+  const std::string place = "scan_match_t utime_start " + std::to_string(message.utime_start);
+  if (message.utime_end <= message.utime_start)
+    throw InputError(origin, place,
+                     "utime_end " + std::to_string(message.utime_end) + " not after utime_start");
+  SensorMotion motion;
+  motion.utime_start = message.utime_start;
+  motion.utime_end = message.utime_end;
+  motion.delta = {message.x, message.y, message.theta};
+  for (int r = 0; r < 3; ++r)
+    for (int c = 0; c < 3; ++c) motion.covariance(r, c) = message.cov[3 * r + c];
+  motion.valid = message.valid;
+  motion.degenerate = message.degenerate;
+  for (int i = 0; i < 3; ++i) motion.weak_direction[i] = message.weak_direction[i];
+  motion.inlier_fraction = message.inlier_fraction;
+  motion.rms = message.rms;
+  const bool finite = std::isfinite(motion.delta.x) && std::isfinite(motion.delta.y) &&
+                      std::isfinite(motion.delta.theta) && motion.covariance.allFinite() &&
+                      motion.weak_direction.allFinite() && std::isfinite(motion.inlier_fraction) &&
+                      std::isfinite(motion.rms);
+  if (!finite) throw InputError(origin, place, "a number is not finite");
+  return motion;
+}
+
 }  // namespace calib

@@ -34,19 +34,19 @@ Pose2 ExpTwist(const Twist2& twist, double dt) {
   return {a * dx - b * dy, b * dx + a * dy, WrapAngle(dtheta)};
 }
 
-Twist2 LogTwist(const Pose2& motion) {
-  const double dtheta = WrapAngle(motion.theta);
-  // ExpTwist maps (vx, vy) through [[a, -b], [b, a]]; invert that 2x2 rotation-scaling.
+Twist2 LogTwist(const Pose2& motion, double dt) {
+  const double t = WrapAngle(motion.theta);
   double a, b;
-  if (std::abs(dtheta) < 1e-6) {
-    a = 1.0 - dtheta * dtheta / 6.0;
-    b = dtheta / 2.0;
+  if (std::abs(t) < 1e-6) {
+    a = 1.0 - t * t / 6.0;
+    b = t / 2.0;
   } else {
-    a = std::sin(dtheta) / dtheta;
-    b = (1.0 - std::cos(dtheta)) / dtheta;
+    a = std::sin(t) / t;
+    b = (1.0 - std::cos(t)) / t;
   }
-  const double n = a * a + b * b;
-  return {(a * motion.x + b * motion.y) / n, (a * motion.y - b * motion.x) / n, dtheta};
+  // [x; y] = [a -b; b a] [vx; vy] dt.
+  const double k = 1.0 / ((a * a + b * b) * dt);
+  return {k * (a * motion.x + b * motion.y), k * (-b * motion.x + a * motion.y), t / dt};
 }
 
 Pose2 Interpolate(const Pose2& a, const Pose2& b, double s) {

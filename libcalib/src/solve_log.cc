@@ -1,9 +1,13 @@
 #include "calib/solve_log.h"
 
+#include <optional>
+
 #include "calib/errors.h"
 #include "calib/log_summary.h"
 #include "calib/messages.h"
 #include "calib/recording.h"
+#include "calib/laser_scan.h"
+#include "calib/scan_match.h"
 
 namespace calib {
 
@@ -43,6 +47,12 @@ CalibrationData ReadCalibrationData(const RobotDescription& robot, const std::st
                                     const std::function<void(const std::string&)>& progress) {
   CalibrationData data(robot);
   const std::string pose_channel = robot.pose ? robot.pose->channel : kPoseChannel;
+  const std::string scan_channel = robot.lidar2d ? robot.lidar2d->channel : kScanChannel;
+  std::optional<ScanMatchPipeline> matcher;
+  if (source == MotionSource::kLidar2d) matcher.emplace(robot);
+  auto take_matches = [&]() {
+    for (const SensorMotion& m : matcher->TakeResults()) data.AddMotion(m);
+  };
   LogReader reader(log_path);
   LogEvent event;
   int64_t count = 0;
@@ -52,14 +62,32 @@ CalibrationData ReadCalibrationData(const RobotDescription& robot, const std::st
       agvcal::wheel_state_t m;
       if (!Decode(event.data.data(), size, &m))
         throw InputError(log_path, EventPlace(event), "does not decode as wheel_state_t");
-      data.AddWheels(m, log_path + ": " + EventPlace(event));
+      const std::string origin = log_path + ": " + EventPlace(event);
+      data.AddWheels(m, origin);
+      if (matcher) {
+        matcher->AddWheels(WheelSampleFromMessage(m, robot, origin));
+        take_matches();
+      }
+    } else if (matcher && event.channel == scan_channel) {
+      agvcal::laser_scan_t m;
+      if (!Decode(event.data.data(), size, &m))
+        throw InputError(log_path, EventPlace(event), "does not decode as laser_scan_t");
+      matcher->AddScan(LaserScanFromMessage(m, log_path + ": " + EventPlace(event)));
+      take_matches();
     } else if (source == MotionSource::kPose && event.channel == pose_channel) {
       agvcal::pose2d_t m;
       if (!Decode(event.data.data(), size, &m))
         throw InputError(log_path, EventPlace(event), "does not decode as pose2d_t");
       data.AddPose(m);
     }
-    if (progress && ++count % 200000 == 0) progress("read " + std::to_string(count) + " messages");
+    if (progress && ++count % 100000 == 0) {
+      progress("read " + std::to_string(count) + " messages, " + std::to_string(data.motions().size()) +
+               " motions");
+    }
+  }
+  if (matcher) {
+    matcher->Finish();
+    take_matches();
   }
   return data;
 }

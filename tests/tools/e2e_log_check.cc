@@ -3,7 +3,10 @@
 //   e2e_log_check tracking LOG ROBOT.yaml     the true motion followed the commanded one
 //   e2e_log_check same LOG_A LOG_B            same messages (bytes) per channel, in order
 //   e2e_log_check stale LOG                   the commander reported stale inputs and stopped the robot
+//   e2e_log_check scanmatch LOG ROBOT.yaml LIVE  SCAN_MATCH in LIVE equals the offline pipeline
+//                                             run over LOG's WHEELS and scans, bit for bit
 // Prints one line per check and exits 1 if any fails.
+#include <algorithm>
 #include <cmath>
 #include <iostream>
 #include <map>
@@ -12,12 +15,16 @@
 
 #include "agvcal/commander_status_t.hpp"
 #include "agvcal/drive_command_t.hpp"
+#include "agvcal/laser_scan_t.hpp"
 #include "agvcal/pose2d_t.hpp"
+#include "agvcal/wheel_state_t.hpp"
 #include "calib/errors.h"
 #include "calib/kinematics.h"
 #include "calib/log_summary.h"
 #include "calib/messages.h"
 #include "calib/recording.h"
+#include "calib/scan_match.h"
+#include "calib/wheel_track.h"
 
 namespace {
 
@@ -150,13 +157,50 @@ int Stale(const std::string& log) {
   return failures ? 1 : 0;
 }
 
+// The live scan matcher against the same front end run offline on the
+// recording that was replayed into it.
+int ScanMatch(const std::string& log, const std::string& robot_file, const std::string& live) {
+  const calib::RobotDescription robot = calib::LoadRobotFile(robot_file);
+  calib::ScanMatchPipeline pipeline(robot);
+  calib::LogReader reader(log);
+  calib::LogEvent e;
+  while (reader.Next(&e)) {
+    if (e.channel == calib::kWheelsChannel) {
+      agvcal::wheel_state_t m;
+      if (calib::Decode(e.data.data(), int(e.data.size()), &m))
+        pipeline.AddWheels(calib::WheelSampleFromMessage(m, robot, log));
+    } else if (e.channel == robot.lidar2d->channel) {
+      agvcal::laser_scan_t m;
+      if (calib::Decode(e.data.data(), int(e.data.size()), &m))
+        pipeline.AddScan(calib::LaserScanFromMessage(m, log));
+    }
+  }
+  pipeline.Finish();
+  const std::vector<calib::SensorMotion> offline = pipeline.TakeResults();
+  std::vector<std::vector<uint8_t>> live_messages;
+  calib::LogReader live_reader(live);
+  while (live_reader.Next(&e))
+    if (e.channel == calib::kScanMatchChannel) live_messages.push_back(e.data);
+  Check(offline.size() > 100, "offline: " + std::to_string(offline.size()) + " matches");
+  Check(live_messages.size() == offline.size(),
+        "live: " + std::to_string(live_messages.size()) + " SCAN_MATCH messages, offline " +
+            std::to_string(offline.size()));
+  size_t same = 0;
+  for (size_t i = 0; i < std::min(offline.size(), live_messages.size()); ++i)
+    same += calib::Encode(calib::ToMessage(offline[i])) == live_messages[i];
+  Check(same == offline.size(), std::to_string(same) + " identical to the offline result");
+  return failures ? 1 : 0;
+}
+
 int Run(int argc, char** argv) {
   const std::string mode = argc > 1 ? argv[1] : "";
   if (mode == "rates" && argc >= 4) return Rates(argc, argv);
   if (mode == "tracking" && argc == 4) return Tracking(argv[2], argv[3]);
   if (mode == "same" && argc == 4) return Same(argv[2], argv[3]);
   if (mode == "stale" && argc == 3) return Stale(argv[2]);
-  std::cerr << "usage: e2e_log_check rates LOG CHANNEL=HZ... | tracking LOG ROBOT.yaml | same A B | stale LOG\n";
+  if (mode == "scanmatch" && argc == 5) return ScanMatch(argv[2], argv[3], argv[4]);
+  std::cerr << "usage: e2e_log_check rates LOG CHANNEL=HZ... | tracking LOG ROBOT.yaml | same A B |"
+               " stale LOG | scanmatch LOG ROBOT.yaml LIVE\n";
   return 2;
 }
 

@@ -11,8 +11,10 @@
 #include "agvcal/calib_residual_t.hpp"
 #include "agvcal/drive_command_t.hpp"
 #include "calib/calibration.h"
+#include "agvcal/scan_match_t.hpp"
 #include "calib/drive_command.h"
 #include "calib/robot.h"
+#include "calib/sensor_motion.h"
 
 namespace calib {
 
@@ -28,6 +30,7 @@ inline constexpr const char* kHeartbeatChannel = "HEARTBEAT";
 inline constexpr const char* kCommanderStatusChannel = "COMMANDER_STATUS";
 inline constexpr const char* kCalibEstimateChannel = "CALIB_ESTIMATE";
 inline constexpr const char* kCalibResidualsChannel = "CALIB_RESIDUALS";
+inline constexpr const char* kScanMatchChannel = "SCAN_MATCH";
 
 // A command for the robot's wheels, named as in the robot file.
 agvcal::drive_command_t ToMessage(const DriveCommand& command, const RobotDescription& robot,
@@ -42,6 +45,11 @@ DriveCommand FromMessage(const agvcal::drive_command_t& message, const RobotDesc
 agvcal::calib_estimate_t ToMessage(const CalibrationResult& result, int64_t utime,
                                    const std::string& status);
 agvcal::calib_residual_t ToMessage(const IntervalResidual& residual);
+// A scan-matcher result (channel SCAN_MATCH) and back. FromMessage throws
+// InputError (`origin` names the source) for a non-finite number or
+// utime_end <= utime_start.
+agvcal::scan_match_t ToMessage(const SensorMotion& motion);
+SensorMotion FromMessage(const agvcal::scan_match_t& message, const std::string& origin);
 
 // Encodes any lcm-gen message into bytes.
 template <typename Message>

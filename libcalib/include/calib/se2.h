@@ -36,11 +36,9 @@ Pose2 Between(const Pose2& a, const Pose2& b);
 // Exact, not an Euler step.
 Pose2 ExpTwist(const Twist2& twist, double dt);
 
-// Logarithm map, the inverse of ExpTwist(twist, 1): the constant body twist that
-// moves from the identity to `motion` in unit time along a circular arc. vy is
-// the sideways part that a non-holonomic drive cannot realise (0 when `motion`
-// lies on an arc tangent to x).
-Twist2 LogTwist(const Pose2& motion);
+// Inverse of ExpTwist: the constant body twist that moves by `motion` in `dt`
+// seconds (dt > 0; |motion.theta| < pi).
+Twist2 LogTwist(const Pose2& motion, double dt);
 
 // Linear interpolation between poses, shortest way round for the heading; s in [0, 1].
 Pose2 Interpolate(const Pose2& a, const Pose2& b, double s);

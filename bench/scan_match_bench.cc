@@ -1,0 +1,127 @@
+// agvcal-bench-scan-match: scan pairs per second of the scan matcher on one
+// core, for the 720-beam scans of a sample recording.
+//
+//   agvcal-bench-scan-match [LOG] [ROBOT.yaml] [--seconds S]
+//
+// Defaults: logs/forklift_demo.log with config/robots/forklift.yaml. Decodes
+// the log once, then runs the whole front end (de-skewing, line fitting and
+// the symmetric PL-ICP match of every pair: ScanMatchPipeline) over it again
+// and again for at least S seconds (default 3), and the one-way match alone
+// on the prepared scans. Prints pairs per second.
+#include <chrono>
+#include <cstdlib>
+#include <iostream>
+#include <string>
+#include <vector>
+
+#include "agvcal/laser_scan_t.hpp"
+#include "agvcal/wheel_state_t.hpp"
+#include "calib/errors.h"
+#include "calib/laser_scan.h"
+#include "calib/messages.h"
+#include "calib/recording.h"
+#include "calib/robot.h"
+#include "calib/scan_match.h"
+#include "calib/wheel_track.h"
+
+namespace {
+
+using Clock = std::chrono::steady_clock;
+
+double Seconds(Clock::time_point since) {
+  return std::chrono::duration<double>(Clock::now() - since).count();
+}
+
+int Run(int argc, char** argv) {
+  std::string log = std::string(AGVCAL_SOURCE_DIR) + "/logs/forklift_demo.log";
+  std::string robot_file = std::string(AGVCAL_SOURCE_DIR) + "/config/robots/forklift.yaml";
+  double min_seconds = 3.0;
+  std::vector<std::string> positional;
+  for (int i = 1; i < argc; ++i) {
+    const std::string a = argv[i];
+    if (a == "--help" || a == "-h") {
+      std::cout << "usage: agvcal-bench-scan-match [LOG] [ROBOT.yaml] [--seconds S]\n";
+      return calib::kExitOk;
+    }
+    if (a == "--seconds" && i + 1 < argc) {
+      min_seconds = std::atof(argv[++i]);
+    } else if (a.rfind("--", 0) == 0) {
+      throw calib::InputError("command line", a, "unknown option");
+    } else {
+      positional.push_back(a);
+    }
+  }
+  if (positional.size() > 0) log = positional[0];
+  if (positional.size() > 1) robot_file = positional[1];
+  const calib::RobotDescription robot = calib::LoadRobotFile(robot_file);
+
+  // Decode once: the benchmark measures matching, not decoding.
+  struct Event {
+    bool is_scan;
+    std::size_t index;
+  };
+  std::vector<Event> order;
+  std::vector<calib::WheelSample> wheels;
+  std::vector<calib::LaserScan> scans;
+  calib::LogReader reader(log);
+  calib::LogEvent e;
+  const std::string scan_channel = robot.lidar2d ? robot.lidar2d->channel : calib::kScanChannel;
+  while (reader.Next(&e)) {
+    const int size = static_cast<int>(e.data.size());
+    if (e.channel == calib::kWheelsChannel) {
+      agvcal::wheel_state_t m;
+      if (!calib::Decode(e.data.data(), size, &m)) continue;
+      order.push_back({false, wheels.size()});
+      wheels.push_back(calib::WheelSampleFromMessage(m, robot, log));
+    } else if (e.channel == scan_channel) {
+      agvcal::laser_scan_t m;
+      if (!calib::Decode(e.data.data(), size, &m)) continue;
+      order.push_back({true, scans.size()});
+      scans.push_back(calib::LaserScanFromMessage(m, log));
+    }
+  }
+  if (scans.size() < 2) throw calib::InputError(log, scan_channel, "fewer than two scans");
+
+  const calib::ScanMatchOptions options;
+  // Whole front end.
+  int64_t pairs = 0, runs = 0;
+  const Clock::time_point start = Clock::now();
+  do {
+    calib::ScanMatchPipeline pipeline(robot, options);
+    for (const Event& ev : order) {
+      if (ev.is_scan)
+        pipeline.AddScan(scans[ev.index]);
+      else
+        pipeline.AddWheels(wheels[ev.index]);
+    }
+    pipeline.Finish();
+    pairs += static_cast<int64_t>(pipeline.TakeResults().size());
+    ++runs;
+  } while (Seconds(start) < min_seconds);
+  const double pipeline_rate = pairs / Seconds(start);
+
+  // The one-way match alone, on scans prepared beforehand (no de-skewing).
+  std::vector<calib::PreparedScan> prepared;
+  for (const calib::LaserScan& scan : scans)
+    prepared.emplace_back(calib::ScanToPoints(scan), options);
+  int64_t matches = 0;
+  const Clock::time_point start_match = Clock::now();
+  do {
+    for (std::size_t k = 1; k < prepared.size(); ++k, ++matches)
+      calib::MatchPointsToLines(prepared[k - 1], prepared[k].points(), calib::Pose2{}, options);
+  } while (Seconds(start_match) < min_seconds);
+  const double match_rate = matches / Seconds(start_match);
+
+  std::cout << "log: " << log << " (" << scans.size() << " scans of " << scans.front().size()
+            << " beams)\n"
+            << "pipeline (de-skew, line fit, symmetric PL-ICP): "
+            << static_cast<int64_t>(pipeline_rate) << " scan pairs/s (" << runs << " passes)\n"
+            << "one-way PL-ICP alone: " << static_cast<int64_t>(match_rate) << " matches/s\n";
+  return calib::kExitOk;
+}
+
+}  // namespace
+
+int main(int argc, char** argv) {
+  return calib::RunMain("agvcal-bench-scan-match", Run, argc, argv);
+}

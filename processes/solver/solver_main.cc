@@ -1,0 +1,160 @@
+// agvcal-solver: the live calibration. Collects WHEELS and the sensor's motions
+// (SCAN_MATCH from agvcal-scanmatch, or POSE), re-solves every N new motions
+// and publishes CALIB_ESTIMATE and CALIB_RESIDUALS; on SIGINT/SIGTERM solves
+// once more on everything and writes RESULT.json. The solve is a function of
+// the messages' contents, not of their arrival times, so a replay of a
+// recording ends with the numbers `agvcal solve` gives for it.
+#include <lcm/lcm-cpp.hpp>
+
+#include <iostream>
+
+#include "agvcal/pose2d_t.hpp"
+#include "agvcal/scan_match_t.hpp"
+#include "agvcal/wheel_state_t.hpp"
+#include "calib/calibration_data.h"
+#include "calib/errors.h"
+#include "calib/messages.h"
+#include "calib/result_files.h"
+#include "common/process_util.h"
+
+namespace {
+
+const char* kUsage = R"(usage: agvcal-solver ROBOT.yaml [--source lidar2d|pose] [--every N] [--time-offset]
+                     [--out RESULT.json] [--lcm-url URL]
+
+Calibrates the robot of ROBOT.yaml live: WHEELS with SCAN_MATCH (the 2D lidar's
+motion from agvcal-scanmatch) or with POSE (an external pose source). Publishes
+CALIB_ESTIMATE (estimates, sigmas, observability) after every N new motions and
+CALIB_RESIDUALS (per-interval residuals), and HEARTBEAT.
+  --source lidar2d|pose   the sensor (default lidar2d if the robot file has one, else pose)
+  --every N               re-solve after N new motions (default 200)
+  --time-offset           also estimate the lidar-to-wheel time offset
+  --out RESULT.json       on exit, solve on all data and write the result (spec/cli.md)
+  --lcm-url URL           LCM provider (default: $LCM_DEFAULT_URL or LCM's default)
+Exit status: 0 stopped by SIGINT/SIGTERM (after the final solve), 2 bad robot
+file, bus or message, 3 the final solve cannot determine a parameter, 1 internal.
+)";
+
+class Solver {
+ public:
+  Solver(const calib::RobotDescription& robot, calib::MotionSource source, calib::CalibrationOptions options,
+         lcm::LCM* lcm)
+      : robot_(robot), source_(source), options_(options), data_(robot_), lcm_(lcm) {}
+
+  void OnWheels(const lcm::ReceiveBuffer*, const std::string& channel, const agvcal::wheel_state_t* msg) {
+    Guard([&] { data_.AddWheels(*msg, channel); });
+  }
+  void OnPose(const lcm::ReceiveBuffer*, const std::string&, const agvcal::pose2d_t* msg) {
+    Guard([&] { data_.AddPose(*msg); });
+    MaybeSolve();
+  }
+  void OnScanMatch(const lcm::ReceiveBuffer*, const std::string& channel, const agvcal::scan_match_t* msg) {
+    Guard([&] { data_.AddMotion(calib::FromMessage(*msg, channel)); });
+    MaybeSolve();
+  }
+
+  void set_every(std::size_t every) { every_ = every; }
+  bool failed() const { return error_.has_value(); }
+  const std::string& error() const { return *error_; }
+
+  // Solves on everything collected; publishes the estimate and the new residuals.
+  // Throws what Calibrate throws when `final`.
+  calib::CalibrationResult Solve(bool final) {
+    const calib::CalibrationResult result = calib::Calibrate(
+        robot_, data_.wheels(), data_.motions(), source_, options_, "live " + std::string(calib::MotionSourceName(source_)));
+    const int64_t utime = data_.motions().empty() ? 0 : data_.motions().back().utime_end;
+    const agvcal::calib_estimate_t estimate = calib::ToMessage(result, utime, final ? "final" : "ok");
+    lcm_->publish(calib::kCalibEstimateChannel, &estimate);
+    for (const calib::IntervalResidual& r : result.intervals) {
+      if (r.utime_end <= last_residual_utime_) continue;
+      const agvcal::calib_residual_t m = calib::ToMessage(r);
+      lcm_->publish(calib::kCalibResidualsChannel, &m);
+      last_residual_utime_ = r.utime_end;
+    }
+    return result;
+  }
+
+ private:
+  // Exceptions must not cross LCM's C callbacks: keep the first and stop.
+  template <typename F>
+  void Guard(F f) {
+    try {
+      f();
+    } catch (const std::exception& e) {
+      if (!error_) error_ = e.what();
+      agvcal_process::g_stop_requested = 1;
+    }
+  }
+
+  void MaybeSolve() {
+    if (data_.motions().size() < solved_at_ + every_) return;
+    solved_at_ = data_.motions().size();
+    try {
+      Solve(false);
+    } catch (const calib::UnobservableError& e) {
+      Publish("unobservable", std::string(e.what()) + "; " + e.remedy());
+    } catch (const calib::InputError& e) {
+      Publish("waiting", e.what());
+    }
+  }
+
+  void Publish(const std::string& status, const std::string& message) {
+    agvcal::calib_estimate_t m{};
+    m.utime = data_.motions().empty() ? 0 : data_.motions().back().utime_end;
+    m.drive = calib::DriveTypeName(robot_.drive);
+    m.status = status;
+    m.message = message;
+    lcm_->publish(calib::kCalibEstimateChannel, &m);
+  }
+
+  const calib::RobotDescription& robot_;
+  calib::MotionSource source_;
+  calib::CalibrationOptions options_;
+  calib::CalibrationData data_;
+  lcm::LCM* lcm_;
+  std::size_t every_ = 200, solved_at_ = 0;
+  int64_t last_residual_utime_ = 0;
+  std::optional<std::string> error_;
+};
+
+int Run(int argc, char** argv) {
+  using namespace agvcal_process;
+  const Args args = ParseArgs(argc, argv, 1, {"--source", "--every", "--out", "--lcm-url"}, {"--time-offset"});
+  if (const auto status = CheckUsage(args, kUsage, 1)) return *status;
+  const calib::RobotDescription robot = calib::LoadRobotFile(args.positional[0]);
+  const std::string source_name = args.Get("--source", robot.lidar2d ? "lidar2d" : "pose");
+  if (source_name != "lidar2d" && source_name != "pose")
+    throw calib::InputError("command line", "--source", "expected lidar2d or pose, got '" + source_name + "'");
+  const calib::MotionSource source =
+      source_name == "pose" ? calib::MotionSource::kPose : calib::MotionSource::kLidar2d;
+  const double every = args.GetDouble("--every", 200);
+  if (!(every >= 1)) throw calib::InputError("command line", "--every", "must be >= 1");
+  calib::CalibrationOptions options;
+  options.estimate_time_offset = args.Has("--time-offset");
+
+  const std::string url = args.Get("--lcm-url", "");
+  lcm::LCM lcm(url);
+  RequireGoodBus(lcm, url);
+  Solver solver(robot, source, options, &lcm);
+  solver.set_every(static_cast<std::size_t>(every));
+  lcm.subscribe(calib::kWheelsChannel, &Solver::OnWheels, &solver);
+  if (source == calib::MotionSource::kPose)
+    lcm.subscribe(robot.pose ? robot.pose->channel : calib::kPoseChannel, &Solver::OnPose, &solver);
+  else
+    lcm.subscribe(calib::kScanMatchChannel, &Solver::OnScanMatch, &solver);
+  Heartbeat heartbeat(&lcm, "solver");
+  InstallStopHandlers();
+  while (!g_stop_requested) {
+    lcm.handleTimeout(100);
+    heartbeat.Beat("running");
+  }
+  if (solver.failed()) throw calib::InputError("bus", "message", solver.error());
+  const calib::CalibrationResult result = solver.Solve(true);
+  if (args.Has("--out")) calib::WriteFileAtomically(args.Get("--out", ""), calib::CalibrationResultJson(result));
+  std::cerr << "agvcal-solver: final solve on " << result.residual.intervals << " intervals\n";
+  return calib::kExitOk;
+}
+
+}  // namespace
+
+int main(int argc, char** argv) { return calib::RunMain("agvcal-solver", Run, argc, argv); }
