@@ -37,6 +37,15 @@
 namespace calib {
 namespace {
 
+// Every consecutive pair matched (no keyframes): what the per-pair checks below measure.
+ScanMatchOptions PerPair() {
+  ScanMatchOptions o;
+  o.keyframe_translation_m = 0.0;
+  o.keyframe_rotation_rad = 0.0;
+  o.keyframe_max_interval_s = 0.0;
+  return o;
+}
+
 constexpr double kDeg = M_PI / 180.0;
 const std::string kSource = AGVCAL_SOURCE_DIR;
 
@@ -104,7 +113,7 @@ Recording Simulate(const SimConfig& sim, const std::string& trajectory, double m
 
 // Runs the pipeline over the events in the given order.
 std::vector<SensorMotion> Match(const Recording& rec, const std::vector<Recording::Event>& order,
-                                const ScanMatchOptions& options = {},
+                                const ScanMatchOptions& options = PerPair(),
                                 ScanMatchCounts* counts = nullptr) {
   ScanMatchPipeline pipeline(rec.robot, options);
   std::vector<SensorMotion> out;
@@ -121,7 +130,7 @@ std::vector<SensorMotion> Match(const Recording& rec, const std::vector<Recordin
   return out;
 }
 
-std::vector<SensorMotion> Match(const Recording& rec, const ScanMatchOptions& options = {},
+std::vector<SensorMotion> Match(const Recording& rec, const ScanMatchOptions& options = PerPair(),
                                 ScanMatchCounts* counts = nullptr) {
   return Match(rec, rec.order, options, counts);
 }
@@ -221,7 +230,7 @@ TEST(ScanMatchTest, SampleLogsMatchGroundTruth) {
     SCOPED_TRACE(log);
     const Recording rec = ReadSample(log, sim);
     ScanMatchCounts counts;
-    const std::vector<SensorMotion> results = Match(rec, {}, &counts);
+    const std::vector<SensorMotion> results = Match(rec, PerPair(), &counts);
     const Accuracy a = Evaluate(rec, results);
     std::cout << log << ": " << a << "\n";
     // One match per consecutive pair, in stamp order, nothing dropped.
@@ -269,9 +278,9 @@ TEST(ScanMatchTest, SymmetricMatchIsUnbiasedAtStandstill) {
   sim.lidar2d.range_noise = 0.0;
   std::mt19937_64 rng(5);
   std::normal_distribution<double> noise(0.0, 0.01);
-  ScanMatchOptions one_way;
+  ScanMatchOptions one_way = PerPair();
   one_way.symmetric = false;
-  const ScanMatchOptions symmetric;
+  const ScanMatchOptions symmetric = PerPair();
   Eigen::Vector3d sum_one_way = Eigen::Vector3d::Zero(), sum_symmetric = Eigen::Vector3d::Zero();
   Eigen::Vector3d sum_sq = Eigen::Vector3d::Zero();
   int n = 0;
@@ -318,7 +327,7 @@ TEST(ScanMatchTest, SymmetricMatchIsUnbiasedAtStandstill) {
 // Cartographer's check: a wrong start along each axis converges to the same match.
 TEST(ScanMatchTest, PerturbedPriorConvergesToTheSameMatch) {
   const Recording rec = ReadSample("forklift_demo.log", "forklift.yaml");
-  const ScanMatchOptions options;
+  const ScanMatchOptions options = PerPair();
   WheelTrack track;
   for (const WheelSample& w : rec.wheels) track.Append(w);
   const auto model = MakeDriveModel(rec.robot);
@@ -428,7 +437,7 @@ TEST(ScanMatchTest, DeskewingMattersAtSpeed) {
   SimConfig sim = LoadSim("diff_robot.yaml");
   const Recording rec = Simulate(sim, "figure8", 30.0);
   const Accuracy on = Evaluate(rec, Match(rec));
-  ScanMatchOptions off_options;
+  ScanMatchOptions off_options = PerPair();
   off_options.deskew = false;
   const Accuracy off = Evaluate(rec, Match(rec, off_options));
   std::cout << "de-skew on:  " << on << "\nde-skew off: " << off << "\n";
@@ -450,7 +459,7 @@ TEST(ScanMatchTest, CorridorIsDegenerateAlongItsAxis) {
   sim.world = "corridor";
   const Recording rec = Simulate(sim, "straight", 20.0);
   ScanMatchCounts counts;
-  const std::vector<SensorMotion> results = Match(rec, {}, &counts);
+  const std::vector<SensorMotion> results = Match(rec, PerPair(), &counts);
   ASSERT_GT(results.size(), 300u);
   int aligned = 0, valid = 0;
   std::vector<double> across, heading;
@@ -540,7 +549,7 @@ TEST(ScanMatchTest, MovingObjectsAreRejected) {
 // results, bit for bit.
 TEST(ScanMatchTest, InterleavingDoesNotChangeResults) {
   const Recording rec = ReadSample("dual_steer_demo.log", "dual_steer_agv.yaml");
-  ScanMatchOptions options;
+  ScanMatchOptions options = PerPair();
   options.max_pending_scans = 1000;
   const std::vector<SensorMotion> logged = Match(rec, rec.order, options);
 
@@ -591,7 +600,7 @@ TEST(ScanMatchTest, DuplicatesAndOutOfOrderStampsAreDropped) {
     }
   }
   ScanMatchCounts counts;
-  const std::vector<SensorMotion> results = Match(rec, messy, {}, &counts);
+  const std::vector<SensorMotion> results = Match(rec, messy, PerPair(), &counts);
   EXPECT_EQ(counts.wheels_dropped, duplicated_wheels + stale_wheels);
   EXPECT_EQ(counts.scans_dropped, duplicated_scans + stale_scans);
   EXPECT_GT(counts.scans_dropped, 0);
@@ -615,7 +624,7 @@ TEST(ScanMatchTest, UncoveredScansAndWheelGaps) {
     order.push_back(ev);
   }
   ScanMatchCounts counts;
-  const std::vector<SensorMotion> results = Match(rec, order, {}, &counts);
+  const std::vector<SensorMotion> results = Match(rec, order, PerPair(), &counts);
   // Scans 0-4 begin before the first wheel sample; the last 5 end after the
   // last sample (scan N-6 starts at it and ends 50 ms later).
   EXPECT_EQ(counts.scans_uncovered, 5 + 6);
@@ -634,7 +643,7 @@ TEST(ScanMatchTest, UncoveredScansAndWheelGaps) {
 
 TEST(ScanMatchTest, BadInput) {
   RobotDescription robot = LoadRobotFile(kSource + "/config/robots/forklift.yaml");
-  ScanMatchPipeline pipeline(robot);
+  ScanMatchPipeline pipeline(robot, PerPair());
   WheelSample two_wheels{1, {0.0, 0.0}, {0.0, 0.0}};  // the forklift has one
   EXPECT_THROW(pipeline.AddWheels(two_wheels), std::invalid_argument);
   // A scan with no beams: accepted, matched as a failure, never a crash.
@@ -654,7 +663,7 @@ TEST(ScanMatchTest, BadInput) {
 
   robot.lidar2d.reset();
   try {
-    ScanMatchPipeline no_lidar(robot);
+    ScanMatchPipeline no_lidar(robot, PerPair());
     FAIL() << "a robot without a 2D lidar was accepted";
   } catch (const InputError& e) {
     EXPECT_NE(e.file().find("forklift.yaml"), std::string::npos);

@@ -555,6 +555,20 @@ void ScanMatchPipeline::Process(bool finishing) {
     const double margin = options_.deskew ? options_.deskew_smoothing_s * 1e6 : 0.0;
     if (!track_.Covers(double(scan.utime), double(scan.end_utime()) + (finishing ? 0.0 : margin)))
       break;
+    // Keyframes: a scan is matched against the last matched one once the robot has moved
+    // enough. Over longer baselines the matcher's small per-pair bias (about 0.02 mm, a
+    // 0.07 % scale error at 25 mm per pair) becomes negligible, and it costs fewer matches.
+    if (reference_) {
+      const double t0 = double(reference_->utime()), t1 = double(scan.utime);
+      const Pose2 moved = PredictSensorMotion(track_, *model_, mount_, t0, t1);
+      if (std::hypot(moved.x, moved.y) < options_.keyframe_translation_m &&
+          std::abs(moved.theta) < options_.keyframe_rotation_rad &&
+          (t1 - t0) * 1e-6 < options_.keyframe_max_interval_s) {
+        pending_.pop_front();
+        ++counts_.between_keyframes;
+        continue;
+      }
+    }
     PreparedScan prepared(
         options_.deskew ? DeskewScan(scan, track_, *model_, mount_, options_.deskew_smoothing_s)
                         : ScanToPoints(scan),

@@ -106,6 +106,11 @@ struct ScanMatchOptions {
   bool deskew = true;                // false: every beam taken at the scan's utime
   double deskew_smoothing_s = 0.03;  // encoder readings smoothed over the scan and this margin
   double max_wheel_gap_s = 0.25;     // longer encoder gaps within a pair: match invalid
+  // A scan is matched to the previous matched scan (keyframe) once the odometry says
+  // the sensor moved this far, turned this much, or this much time passed.
+  double keyframe_translation_m = 0.2;
+  double keyframe_rotation_rad = 0.1;
+  double keyframe_max_interval_s = 1.0;
   int max_pending_scans = 200;       // scans waiting for wheel data; beyond, the oldest is dropped
 };
 
@@ -209,6 +214,7 @@ struct ScanMatchCounts {
   int64_t invalid = 0;          // of which valid = false
   int64_t degenerate = 0;       // of which degenerate
   int64_t wheel_gaps = 0;       // of the invalid: an encoder gap longer than max_wheel_gap_s
+  int64_t between_keyframes = 0;  // scans skipped: too little motion since the last keyframe
 };
 
 // The incremental front end shared by the live process and the offline

@@ -1,0 +1,56 @@
+#!/usr/bin/env bash
+# `agvcal solve` end to end, and the live solver giving its numbers: a recording
+# replayed with lcm-logplayer into agvcal-scanmatch + agvcal-solver (in a private
+# network namespace) ends with the RESULT.json `agvcal solve` writes for it, value
+# for value. Bad input exits 2, a straight-only recording exits 3.
+source "$(dirname "$0")/lib.bash" "$@"
+robot=config/robots/forklift.yaml
+log=logs/forklift_demo.log
+
+expect_status 0 "agvcal solve on the sample" \
+  "$BUILD/agvcal" solve "$robot" "$log" --quiet --out "$TMP/offline.json" --write-robot "$TMP/cal.yaml"
+expect_status 0 "the calibrated robot file reads back" "$BUILD/agvcal" solve "$TMP/cal.yaml" "$log" --quiet
+python3 - "$TMP/offline.json" <<'PY' && pass "RESULT.json has the keys of spec/cli.md" || fail "RESULT.json keys"
+import json, sys
+r = json.load(open(sys.argv[1]))
+assert r["drive"] == "tricycle"
+assert set(r["params"]) == {"drive_radius", "wheelbase", "steer_offset"}
+for k in ("x", "y", "yaw", "time_offset"): assert "value" in r["lidar2d"][k] and "std" in r["lidar2d"][k]
+for k in ("intervals", "outliers", "rms_x", "rms_y", "rms_yaw"): assert k in r["residual"]
+assert "condition" in r["observability"] and "weak" in r["observability"]
+PY
+
+cat > "$TMP/run.sh" <<RUN
+set -u
+"$BUILD/agvcal-scanmatch" "$robot" 2> "$TMP/scanmatch.err" & matcher=\$!
+"$BUILD/agvcal-solver" "$robot" --out "$TMP/live.json" 2> "$TMP/solver.err" & solver=\$!
+sleep 1   # subscribed before the replay starts
+lcm-logplayer -s 4 "$log"
+sleep 1
+kill -INT \$matcher; wait \$matcher
+sleep 1   # the matcher's last results reach the solver
+kill -INT \$solver; wait \$solver
+RUN
+expect_status 0 "replay into agvcal-scanmatch + agvcal-solver" \
+  timeout 180 scripts/netns-run bash "$TMP/run.sh"
+python3 - "$TMP/offline.json" "$TMP/live.json" <<'PY' && pass "live result equals agvcal solve's" || fail "live result differs: $(diff "$TMP/offline.json" "$TMP/live.json" | head -20)"
+import json, sys
+a, b = (json.load(open(p)) for p in sys.argv[1:3])
+for k in ("params", "lidar2d", "residual"):
+    assert a[k] == b[k], (k, a[k], b[k])
+PY
+
+# Refusals.
+"$BUILD/agvcal" simulate config/sims/diff_robot.yaml "$TMP/straight.log" --trajectory straight --quiet
+expect_status 3 "straight-only recording" "$BUILD/agvcal" solve config/robots/diff_robot.yaml "$TMP/straight.log" --quiet --out "$TMP/no.json"
+stderr_has "track"
+if [ ! -e "$TMP/no.json" ]; then pass "no result file on exit 3"; else fail "result file written on exit 3"; fi
+expect_status 2 "robot file of another drive type" "$BUILD/agvcal" solve config/robots/diff_robot.yaml "$log" --quiet
+stderr_has "forklift_demo.log"
+head -c 100000 "$log" > "$TMP/truncated.log"
+expect_status 2 "truncated log" "$BUILD/agvcal" solve "$robot" "$TMP/truncated.log" --quiet
+stderr_has "truncated.log"
+expect_status 2 "unknown option" "$BUILD/agvcal" solve "$robot" "$log" --bogus
+expect_status 0 "--help" "$BUILD/agvcal" solve --help
+expect_status 0 "solver --help" "$BUILD/agvcal-solver" --help
+finish
