@@ -181,7 +181,7 @@ int ScanMatch(const std::string& log, const std::string& robot_file, const std::
   calib::LogReader live_reader(live);
   while (live_reader.Next(&e))
     if (e.channel == calib::kScanMatchChannel) live_messages.push_back(e.data);
-  Check(offline.size() > 100, "offline: " + std::to_string(offline.size()) + " matches");
+  Check(offline.size() > 20, "offline: " + std::to_string(offline.size()) + " keyframe matches");
   Check(live_messages.size() == offline.size(),
         "live: " + std::to_string(live_messages.size()) + " SCAN_MATCH messages, offline " +
             std::to_string(offline.size()));
