@@ -38,3 +38,6 @@ else
        "scripts/make-samples.sh regenerates the samples)" >&2
   exit 1
 fi
+echo "== calibrating the forklift from it (simulator truth: drive_radius 0.1163, wheelbase 1.4335,"
+echo "   steer_offset 0.0131, lidar2d x 1.6152 y 0.0123 yaw -0.0142)"
+build/agvcal solve config/robots/forklift.yaml logs/forklift_demo.log --out "$tmp/result.json"
