@@ -1,5 +1,7 @@
 #include "calib/se2.h"
 
+#include "calib/kinematics_generic.h"
+
 namespace calib {
 
 double WrapAngle(double angle) {
@@ -20,31 +22,15 @@ Pose2 Inverse(const Pose2& a) {
 Pose2 Between(const Pose2& a, const Pose2& b) { return Compose(Inverse(a), b); }
 
 Pose2 ExpTwist(const Twist2& twist, double dt) {
-  const double dtheta = twist.omega * dt;
-  const double dx = twist.vx * dt, dy = twist.vy * dt;
-  // sin(t)/t and (1 - cos t)/t, with their series near t = 0.
-  double a, b;
-  if (std::abs(dtheta) < 1e-6) {
-    a = 1.0 - dtheta * dtheta / 6.0;
-    b = dtheta / 2.0;
-  } else {
-    a = std::sin(dtheta) / dtheta;
-    b = (1.0 - std::cos(dtheta)) / dtheta;
-  }
-  return {a * dx - b * dy, b * dx + a * dy, WrapAngle(dtheta)};
+  const generic::Pose<double> p = generic::Exp(twist.vx * dt, twist.vy * dt, twist.omega * dt);
+  return {p.x, p.y, WrapAngle(p.theta)};
 }
 
 Twist2 LogTwist(const Pose2& motion, double dt) {
   const double t = WrapAngle(motion.theta);
-  double a, b;
-  if (std::abs(t) < 1e-6) {
-    a = 1.0 - t * t / 6.0;
-    b = t / 2.0;
-  } else {
-    a = std::sin(t) / t;
-    b = (1.0 - std::cos(t)) / t;
-  }
-  // [x; y] = [a -b; b a] [vx; vy] dt.
+  // Exp maps (vx, vy) dt through [a -b; b a], with (a, b) its image of a unit step along x.
+  const generic::Pose<double> unit = generic::Exp(1.0, 0.0, t);
+  const double a = unit.x, b = unit.y;
   const double k = 1.0 / ((a * a + b * b) * dt);
   return {k * (a * motion.x + b * motion.y), k * (-b * motion.x + a * motion.y), t / dt};
 }
