@@ -14,6 +14,8 @@ const char* kUsage = R"(usage: agvcal COMMAND [ARGS] [--help]
 Commands:
   simulate SIM.yaml OUT.log   write a simulated recording (commander + simulator, offline)
   info LOG                    channels, message counts, rates and time span of a recording
+  ground ROBOT.yaml LOG|CLOUD_FILE [--out RESULT.json]
+                              3D lidar height, pitch and roll above the floor
 Run 'agvcal COMMAND --help' for a command's options.
 
 Exit status: 0 success, 2 unusable input (names the file, place and problem),
@@ -28,6 +30,7 @@ int Run(int argc, char** argv) {
   static const std::map<std::string, int (*)(int, char**)> kCommands{
       {"simulate", agvcal_cli::Simulate},
       {"info", agvcal_cli::Info},
+      {"ground", agvcal_cli::Ground},
   };
   const auto it = kCommands.find(argv[1]);
   if (it == kCommands.end())

@@ -6,5 +6,6 @@ namespace agvcal_cli {
 
 int Simulate(int argc, char** argv);
 int Info(int argc, char** argv);
+int Ground(int argc, char** argv);
 
 }  // namespace agvcal_cli
