@@ -605,25 +605,46 @@ MountEstimate GroundCalibrator::Combine(int sector, std::vector<const Frame*>* u
         "against walls), and check lidar3d.z, pitch, roll and body in the robot file");
   }
 
+  // A turning lidar's pose changes with its angle within a sector: there each
+  // frame is compared with a straight line in the angle about the frames' mean
+  // angle, and the estimate is a parabola's value at that angle.
+  const bool trend = sector >= 0 && usable.size() >= 3;
+  double sum_sin = 0.0, sum_cos = 0.0;
+  for (const Frame* f : usable) sum_sin += std::sin(f->angle), sum_cos += std::cos(f->angle);
+  const double angle_mean = sector >= 0 ? std::atan2(sum_sin, sum_cos) : 0.0;
+  auto offset = [&](const Frame* f) { return trend ? std::remainder(f->angle - angle_mean, 2 * kPi) : 0.0; };
+  auto pose_of = [](const Frame* f) { return Eigen::Vector3d(f->fit.pose.z, f->fit.pose.pitch, f->fit.pose.roll); };
+
   // Frames whose floor tilts against the others: the robot stood on a slope or a bump.
+  // Deviation from the median, after an unweighted straight-line trend in the angle (turning lidar).
+  Eigen::Vector3d slope0 = Eigen::Vector3d::Zero();
+  if (trend) {
+    double sa = 0, saa = 0;
+    Eigen::Vector3d sx = Eigen::Vector3d::Zero(), sax = Eigen::Vector3d::Zero();
+    for (const Frame* f : usable) {
+      const double da = offset(f);
+      sa += da, saa += da * da, sx += pose_of(f), sax += da * pose_of(f);
+    }
+    const double nf = static_cast<double>(usable.size()), det = nf * saa - sa * sa;
+    if (det > 1e-12) slope0 = (nf * sax - sa * sx) / det;
+  }
   std::vector<double> zs, pitches, rolls;
   for (const Frame* f : usable) {
-    zs.push_back(f->fit.pose.z);
-    pitches.push_back(f->fit.pose.pitch);
-    rolls.push_back(f->fit.pose.roll);
+    const Eigen::Vector3d p = pose_of(f) - offset(f) * slope0;
+    zs.push_back(p[0]), pitches.push_back(p[1]), rolls.push_back(p[2]);
   }
   const double mz = Median(zs), mp = Median(pitches), mr = Median(rolls);
   const FrameOptions& fo = options_.frames;
   std::vector<const Frame*> level;
   double worst_tilt = 0.0, worst_height = 0.0;
-  for (const Frame* f : usable) {
-    const double tilt = std::max(std::abs(f->fit.pose.pitch - mp), std::abs(f->fit.pose.roll - mr));
-    const double height = std::abs(f->fit.pose.z - mz);
+  for (size_t k = 0; k < usable.size(); ++k) {
+    const double tilt = std::max(std::abs(pitches[k] - mp), std::abs(rolls[k] - mr));
+    const double height = std::abs(zs[k] - mz);
     if (tilt > fo.max_tilt_rad || height > fo.max_height_m) {
       worst_tilt = std::max(worst_tilt, tilt);
       worst_height = std::max(worst_height, height);
     } else {
-      level.push_back(f);
+      level.push_back(usable[k]);
     }
   }
   const int tilted = static_cast<int>(usable.size() - level.size());
@@ -638,9 +659,14 @@ MountEstimate GroundCalibrator::Combine(int sector, std::vector<const Frame*>* u
         "level floor");
   }
 
-  // Inverse-covariance weighted mean; covariance inflated by the scatter (Birge ratio).
-  Eigen::Matrix3d w_sum = Eigen::Matrix3d::Zero();
-  Eigen::Vector3d wx_sum = Eigen::Vector3d::Zero();
+  // Inverse-covariance weighted least squares of the frames' poses on
+  // [I, da I, da^2 I] (a constant; for a turning lidar also the trend and its
+  // curvature, so the constant is the pose at the mean angle); the covariance
+  // is inflated by the scatter about it (Birge ratio) when > 1.
+  const int order = !trend ? 0 : level.size() >= 4 ? 2 : level.size() >= 3 ? 1 : 0;
+  const int unknowns = 3 * (order + 1);
+  Eigen::MatrixXd a = Eigen::MatrixXd::Zero(unknowns, unknowns);
+  Eigen::VectorXd rhs = Eigen::VectorXd::Zero(unknowns);
   std::vector<Eigen::Matrix3d> weights;
   weights.reserve(level.size());
   long points = 0, inliers = 0;
@@ -648,26 +674,30 @@ MountEstimate GroundCalibrator::Combine(int sector, std::vector<const Frame*>* u
   for (const Frame* f : level) {
     const Eigen::Matrix3d w = f->fit.cov.inverse();
     weights.push_back(w);
-    w_sum += w;
-    wx_sum += w * Eigen::Vector3d(f->fit.pose.z, f->fit.pose.pitch, f->fit.pose.roll);
+    const double da = offset(f);
+    Eigen::MatrixXd j(3, unknowns);
+    for (int k = 0; k <= order; ++k) j.middleCols<3>(3 * k) = std::pow(da, k) * Eigen::Matrix3d::Identity();
+    a += j.transpose() * w * j;
+    rhs += j.transpose() * w * pose_of(f);
     points += f->fit.points;
     inliers += f->fit.inliers;
     sum_r2 += f->fit.rms_m * f->fit.rms_m * f->fit.inliers;
   }
-  const Eigen::Matrix3d cov_internal = w_sum.inverse();
-  const Eigen::Vector3d x = cov_internal * wx_sum;
+  const Eigen::MatrixXd a_inv = a.inverse();
+  const Eigen::VectorXd x = a_inv * rhs;
   double chi2 = 0.0;
   for (size_t k = 0; k < level.size(); ++k) {
-    const Eigen::Vector3d e =
-        Eigen::Vector3d(level[k]->fit.pose.z, level[k]->fit.pose.pitch, level[k]->fit.pose.roll) - x;
+    Eigen::Vector3d e = pose_of(level[k]);
+    for (int o = 0; o <= order; ++o) e -= std::pow(offset(level[k]), o) * x.segment<3>(3 * o);
     chi2 += e.dot(weights[k] * e);
   }
   MountEstimate est;
-  const int dof = 3 * (static_cast<int>(level.size()) - 1);
+  const int dof = 3 * static_cast<int>(level.size()) - unknowns;
   est.birge_ratio = dof > 0 ? std::sqrt(chi2 / dof) : 1.0;
-  const Eigen::Matrix3d cov = cov_internal * std::max(1.0, est.birge_ratio * est.birge_ratio);
+  const Eigen::Matrix3d cov = a_inv.topLeftCorner<3, 3>() * std::max(1.0, est.birge_ratio * est.birge_ratio);
   est.value = {x[0], x[1], x[2]};
   est.std = {std::sqrt(cov(0, 0)), std::sqrt(cov(1, 1)), std::sqrt(cov(2, 2))};
+  est.angle = angle_mean;
   est.frames = static_cast<int>(level.size());
   est.frames_tilted = tilted;
   est.inliers = points > 0 ? static_cast<double>(inliers) / static_cast<double>(points) : 0.0;
@@ -699,10 +729,7 @@ GroundResult GroundCalibrator::Result(bool with_grid) const {
         if (first_problem.empty()) first_problem = e.what();
         continue;
       }
-      double sum_sin = 0.0, sum_cos = 0.0;
-      for (const Frame& f : frames_)
-        if (f.sector == s && f.fit.usable) sum_sin += std::sin(f.angle), sum_cos += std::cos(f.angle);
-      sector.angle_mean = std::atan2(sum_sin, sum_cos);
+      sector.angle_mean = sector.estimate.angle;
       result.sectors.push_back(sector);
     }
     if (!missing.empty()) {

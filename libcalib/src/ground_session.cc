@@ -129,6 +129,15 @@ agvcal::ground_estimate_t GroundSession::EstimateMessage() const {
   return msg;
 }
 
+agvcal::point_cloud_t CloudMessage(const std::vector<float>& xyz, int64_t utime) {
+  agvcal::point_cloud_t msg{};
+  msg.utime = utime;
+  msg.npoints = static_cast<int32_t>(xyz.size() / 3);
+  msg.xyz.reserve(xyz.size() / 3);
+  for (size_t i = 0; i + 2 < xyz.size(); i += 3) msg.xyz.push_back({xyz[i], xyz[i + 1], xyz[i + 2]});
+  return msg;
+}
+
 GroundResult CalibrateGroundFile(const RobotDescription& robot, const GroundOptions& options,
                                  const std::string& path, bool with_grid, GroundInput* input) {
   GroundInput info;

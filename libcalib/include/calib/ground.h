@@ -54,8 +54,10 @@
 //
 // A lidar that turns on its mount (Mount3d::rotation): frames are sorted into
 // sectors of the rotation range by the angle they were taken at, and each
-// sector is calibrated on its own; the table is what the robot uses for the
-// angle its lidar stands at.
+// sector is calibrated on its own, as a parabola in the angle through its
+// frames (the pose changes within a sector when the turret's axis is not
+// plumb), evaluated at their mean angle; the table is what the robot uses for
+// the angle its lidar stands at.
 
 #include <cstddef>
 #include <cstdint>
@@ -189,6 +191,8 @@ struct MountEstimate {
   double inliers = 0.0;     // share of those frames' points that lie on the floor
   double rms_m = 0.0;       // RMS distance of the floor points from their frame's plane
   double birge_ratio = 1.0; // sqrt(chi^2/dof) of the frames about the estimate (std inflated by it when > 1)
+  double angle = 0.0;       // a turning lidar's sector: the mean angle of its frames, where
+                            // the estimate holds (0 for a fixed lidar)
 };
 
 struct SectorEstimate {

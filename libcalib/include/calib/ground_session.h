@@ -11,6 +11,7 @@
 #include <deque>
 #include <string>
 #include <utility>
+#include <vector>
 
 #include "agvcal/ground_estimate_t.hpp"
 #include "agvcal/mount_angle_t.hpp"
@@ -53,6 +54,10 @@ class GroundSession {
   double last_angle_ = 0.0;
   int last_sector_ = -1;
 };
+
+// A cloud message (CLOUD, spec/messages.md) holding `xyz` (interleaved, sensor
+// frame, m), e.g. a PCD or KITTI frame read by calib/cloud_file.h, for a recording.
+agvcal::point_cloud_t CloudMessage(const std::vector<float>& xyz, int64_t utime);
 
 // What a run over a file read.
 struct GroundInput {
