@@ -222,10 +222,16 @@ std::string GroundResultJson(const GroundResult& result, const GroundInput& inpu
 std::string GroundResultText(const GroundResult& result, const GroundInput& input) {
   std::ostringstream out;
   const MountEstimate& e = result.lidar3d;
-  out << "3D lidar from " << input.kind << " " << input.path << ": " << e.frames << " frames used of "
-      << result.frames_seen << " (" << result.frames_unusable << " unusable, " << e.frames_tilted
-      << " tilted), floor inliers " << Format("%.1f", 100 * e.inliers) << " %, floor RMS "
-      << Format("%.1f", 1000 * e.rms_m) << " mm\n";
+  out << "3D lidar from " << input.kind << " " << input.path << ": " << result.frames_seen
+      << " frames, " << result.frames_unusable << " unusable";
+  if (!result.sectors.empty()) {
+    int home = 0;
+    for (const SectorEstimate& s : result.sectors)
+      if (s.angle_min <= 0.0 && 0.0 < s.angle_max) home = s.index;
+    out << "; " << result.sectors.size() << " sectors, below: sector " << home << " (holding angle 0)";
+  }
+  out << "; " << e.frames << " frames used, " << e.frames_tilted << " tilted, floor inliers "
+      << Format("%.1f", 100 * e.inliers) << " %, floor RMS " << Format("%.1f", 1000 * e.rms_m) << " mm\n";
   out << "          robust fit (1 sigma)";
   if (result.grid)
     out << "          grid search (" << (result.grid->accepted ? "accepted" : "NOT accepted") << ", "
@@ -247,12 +253,12 @@ std::string GroundResultText(const GroundResult& result, const GroundInput& inpu
     out << "  (frames scatter " << Format("%.2f", e.birge_ratio)
         << " x their own sigmas; sigmas inflated by that)\n";
   if (!result.sectors.empty()) {
-    out << "per sector (deg): index  from    to   mean  frames        z m      pitch deg     roll deg\n";
+    out << "per sector: index   from deg    to deg  mean deg  frames       z m   pitch deg    roll deg\n";
     for (const SectorEstimate& s : result.sectors)
-      out << "                  " << Format("%5.0f", s.index) << Format("%6.1f", s.angle_min / kDeg)
-          << Format("%6.1f", s.angle_max / kDeg) << Format("%7.1f", s.angle_mean / kDeg)
-          << Format("%8.0f", s.estimate.frames) << Format("%11.4f", s.estimate.value.z)
-          << Format("%13.4f", s.estimate.value.pitch / kDeg) << Format("%13.4f", s.estimate.value.roll / kDeg)
+      out << "            " << Format("%5.0f", s.index) << Format("%11.2f", s.angle_min / kDeg)
+          << Format("%10.2f", s.angle_max / kDeg) << Format("%10.2f", s.angle_mean / kDeg)
+          << Format("%8.0f", s.estimate.frames) << Format("%10.5f", s.estimate.value.z)
+          << Format("%12.5f", s.estimate.value.pitch / kDeg) << Format("%12.5f", s.estimate.value.roll / kDeg)
           << "\n";
   }
   return out.str();

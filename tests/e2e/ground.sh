@@ -92,6 +92,39 @@ cat "$TMP/clouds.log" "$TMP/ramp_half.log" >"$TMP/ramp.log"
 expect_status 3 "a floor that tilts between frames" "$AGVCAL" ground $robot "$TMP/ramp.log"
 stderr_has "not one level plane across frames"; stderr_has "slope"
 
+# A lidar turning on its mount: a table of 24 sectors; a part turn is refused naming the sectors.
+cat >"$TMP/turret_robot.yaml" <<EOF
+name: turret-agv
+drive: differential
+wheels: {left: left_wheel, right: right_wheel}
+params: {left_radius: 0.075, right_radius: 0.075, track: 0.45}
+lidar3d: {channel: CLOUD, z: 1.20, body: {min: [-0.4, -0.35, 0.0], max: [0.4, 0.35, 1.0]},
+          rotation: {channel: LIDAR3D_ANGLE, sector_width: 0.2617993878}}
+limits: {max_speed: 0.8, max_omega: 1.0, max_accel: 0.5}
+EOF
+turret_sim() {  # turret_sim SPEED OUT.log
+  cat >"$TMP/turret_sim.yaml" <<EOF
+robot: $TMP/turret_robot.yaml
+truth:
+  lidar3d: {z: 1.215, pitch: 0.02, roll: 0.01}
+sensors:
+  lidar3d: {rate: 10, rings: 16, points_per_ring: 360, body: {min: [-0.4, -0.35, 0.0], max: [0.4, 0.35, 1.0]},
+            turret: {rate: 40, speed: $1, axis_pitch: 0.01, axis_roll: -0.005}}
+EOF
+  "$AGVCAL" simulate "$TMP/turret_sim.yaml" "$2" --trajectory demo --quiet
+}
+turret_sim 0.5 "$TMP/turret.log"
+expect_status 0 "ground for a turning lidar" "$AGVCAL" ground "$TMP/turret_robot.yaml" "$TMP/turret.log" --out "$TMP/turret.json"
+sectors=$(grep -c '"angle_mean"' "$TMP/turret.json")
+[ "$sectors" = 24 ] && pass "24 sectors in RESULT.json" || fail "$sectors sectors in RESULT.json"
+expect_status 0 "agvcal-ground for a turning lidar through file://" \
+  timeout 120 "$GROUND" "$TMP/turret_robot.yaml" --grid --out "$TMP/turret_file.json" --lcm-url "file://$TMP/turret.log?speed=0"
+same_result "$TMP/turret.json" "$TMP/turret_file.json" && pass "turning lidar: file:// result identical" \
+  || fail "turning lidar: file:// result differs"
+turret_sim 0.1 "$TMP/part_turn.log"
+expect_status 3 "a part turn" "$AGVCAL" ground "$TMP/turret_robot.yaml" "$TMP/part_turn.log"
+stderr_has "no estimate for sector"; stderr_has "turn the lidar through every sector"
+
 expect_status 0 "agvcal ground --help" "$AGVCAL" ground --help
 expect_status 0 "agvcal-ground --help" "$GROUND" --help
 expect_status 2 "agvcal-ground with a bad window" "$GROUND" $robot --window 0
