@@ -220,6 +220,8 @@ CloudFileData ReadPcd(const std::string& path) {
   if (!have_count)
     for (auto& f : fields) f.count = 1;
   if (width < 0 || height < 0) fail_line(data_line, "header lacks WIDTH or HEIGHT");
+  if (static_cast<double>(width) * static_cast<double>(height) > 4e9)
+    fail_line(data_line, "WIDTH x HEIGHT is more than 4e9 points");
   if (points < 0) points = width * height;
   if (points != width * height)
     fail_line(data_line, "POINTS " + std::to_string(points) + " differs from WIDTH x HEIGHT " +
@@ -323,7 +325,9 @@ CloudFileData ReadPcd(const std::string& path) {
     size_t expected = 0;
     for (const auto& f : fields)
       if (f.name != "_") expected += static_cast<size_t>(f.size) * f.count * n;
-    if (uncompressed != expected)
+    // LZF expands at most ~88 times (a 3-byte reference to 264 bytes): a larger
+    // claim is corrupt, and must not make us allocate it.
+    if (uncompressed != expected || expected > 90 * static_cast<size_t>(compressed) + 64)
       throw InputError(path, "byte " + std::to_string(pos + 4),
                        "uncompressed size " + std::to_string(uncompressed) + " does not match " +
                            std::to_string(n) + " points of the header's fields (" + std::to_string(expected) + ")");

@@ -516,11 +516,11 @@ const FrameFit& GroundCalibrator::AddFrame(const float* xyz, size_t count, doubl
   frame.angle = mount_angle;
   const bool for_grid = options_.grid.max_points > 0 && frame.sector == HomeSector();
   std::vector<float> floor_points;
-  frame.fit = FitFloor(xyz, count, nominal_, options_.fit, mount_angle,
-                       for_grid ? &floor_points : nullptr);
   if (nominal_.rotation && frame.sector < 0) {
-    frame.fit.usable = false;
     frame.fit.problem = "mount angle outside the rotation range";
+  } else {
+    frame.fit = FitFloor(xyz, count, nominal_, options_.fit, mount_angle,
+                         for_grid ? &floor_points : nullptr);
   }
   if (for_grid && frame.fit.usable) {
     // An even share of each frame; every frame's share is halved when the total grows too big.

@@ -30,6 +30,7 @@ std::optional<SacPlane> FindPlaneSac(const float* xyz, size_t count, const Eigen
   model->setEpsAngle(max_angle_rad);
   pcl::RandomSampleConsensus<pcl::PointXYZ> ransac(model, threshold_m);  // fixed seed by default
   ransac.setMaxIterations(max_iterations);
+  ransac.setNumberOfThreads(-1);  // serial: one core, and the same result every run
   ransac.setProbability(0.999);
   if (!ransac.computeModel()) return std::nullopt;
   Eigen::VectorXf coefficients;
