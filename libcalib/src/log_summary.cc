@@ -4,9 +4,11 @@
 
 #include "agvcal/commander_status_t.hpp"
 #include "agvcal/drive_command_t.hpp"
+#include "agvcal/ground_estimate_t.hpp"
 #include "agvcal/heartbeat_t.hpp"
 #include "agvcal/imu_t.hpp"
 #include "agvcal/laser_scan_t.hpp"
+#include "agvcal/mount_angle_t.hpp"
 #include "agvcal/point_cloud_t.hpp"
 #include "agvcal/pose2d_t.hpp"
 #include "agvcal/wheel_state_t.hpp"
@@ -21,7 +23,7 @@ namespace {
 // Decodes a message of type M and returns its utime; false if it does not decode.
 template <typename M>
 bool DecodeUtime(const std::vector<uint8_t>& data, int64_t* utime) {
-  M msg;
+  M msg{};
   if (!Decode(data.data(), static_cast<int>(data.size()), &msg)) return false;
   *utime = msg.utime;
   return true;
@@ -43,6 +45,8 @@ const std::map<std::string, ChannelType>& KnownChannels() {
       {kGroundTruthChannel, {"pose2d_t", DecodeUtime<agvcal::pose2d_t>}},
       {kHeartbeatChannel, {"heartbeat_t", DecodeUtime<agvcal::heartbeat_t>}},
       {kCommanderStatusChannel, {"commander_status_t", DecodeUtime<agvcal::commander_status_t>}},
+      {kGroundEstimateChannel, {"ground_estimate_t", DecodeUtime<agvcal::ground_estimate_t>}},
+      {kMountAngleChannel, {"mount_angle_t", DecodeUtime<agvcal::mount_angle_t>}},
   };
   return kChannels;
 }

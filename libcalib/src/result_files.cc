@@ -1,14 +1,10 @@
 #include "calib/result_files.h"
 
-#include <cerrno>
 #include <cmath>
-#include <cstdio>
-#include <cstring>
 
 #include <nlohmann/json.hpp>
 #include <yaml-cpp/yaml.h>
 
-#include "calib/errors.h"
 
 namespace calib {
 namespace {
@@ -88,19 +84,6 @@ std::string CalibratedRobotYaml(const RobotDescription& robot, const Calibration
   out.SetDoublePrecision(9);
   out << root;
   return std::string("# Calibrated by agvcal solve from ") + log_path + "\n" + out.c_str() + "\n";
-}
-
-void WriteFileAtomically(const std::string& path, const std::string& text) {
-  const std::string partial = path + ".partial";
-  std::FILE* f = std::fopen(partial.c_str(), "wb");
-  if (!f) throw InputError(path, "output file", std::strerror(errno));
-  const bool written = std::fwrite(text.data(), 1, text.size(), f) == text.size();
-  const bool closed = std::fclose(f) == 0;
-  if (!written || !closed || std::rename(partial.c_str(), path.c_str()) != 0) {
-    const std::string problem = std::strerror(errno);
-    std::remove(partial.c_str());
-    throw InputError(path, "output file", "could not write: " + problem);
-  }
 }
 
 }  // namespace calib

@@ -4,6 +4,7 @@
 #include <yaml-cpp/yaml.h>
 
 #include <algorithm>
+#include <array>
 #include <cmath>
 #include <map>
 #include <optional>
@@ -112,8 +113,49 @@ Mount2d ReadMount2d(const Reporter& reporter, const Field& field, const std::str
   return mount;
 }
 
+std::array<double, 3> ReadPoint3(const Reporter& reporter, const Field& field) {
+  if (!field.value.IsSequence() || field.value.size() != 3)
+    reporter.Fail(field, "expected [x, y, z], got " + Describe(field.value));
+  std::array<double, 3> v{};
+  for (size_t i = 0; i < 3; ++i) v[i] = ReadNumber(reporter, Field{field.path, field.line, field.value[i]});
+  return v;
+}
+
+BodyBox ReadBody(const Reporter& reporter, const Field& field) {
+  const CheckedMap map(reporter, field, {"min", "max"});
+  BodyBox box;
+  box.min = ReadPoint3(reporter, map.Get("min", "lower corner [x, y, z] of the body box, m"));
+  const Field max_field = map.Get("max", "upper corner [x, y, z] of the body box, m");
+  box.max = ReadPoint3(reporter, max_field);
+  for (int i = 0; i < 3; ++i) {
+    if (!(box.max[i] > box.min[i]))
+      reporter.Fail(max_field, "max must exceed min on every axis (axis " + std::string(1, "xyz"[i]) + ")");
+  }
+  return box;
+}
+
+MountRotation ReadRotation(const Reporter& reporter, const Field& field) {
+  const CheckedMap map(reporter, field, {"channel", "min", "max", "sector_width", "max_age"});
+  MountRotation rotation;
+  rotation.channel = ChannelOr(reporter, map, rotation.channel);
+  if (const auto f = map.Find("min")) rotation.min = ReadBounded(reporter, *f, 2 * kPi, "2 pi");
+  if (const auto f = map.Find("max")) rotation.max = ReadBounded(reporter, *f, 2 * kPi, "2 pi");
+  if (!(rotation.max > rotation.min) || rotation.max - rotation.min > 2 * kPi + 1e-9) {
+    const Field f = map.Find("max") ? *map.Find("max") : field;
+    reporter.Fail(f, "the rotation range must satisfy min < max <= min + 2 pi");
+  }
+  if (const auto f = map.Find("sector_width")) {
+    rotation.sector_width = ReadPositive(reporter, *f);
+    if (rotation.sector_width > rotation.max - rotation.min + 1e-9)
+      reporter.Fail(*f, "wider than the rotation range");
+  }
+  if (const auto f = map.Find("max_age")) rotation.max_age_s = ReadPositive(reporter, *f);
+  return rotation;
+}
+
 Mount3d ReadMount3d(const Reporter& reporter, const Field& field) {
-  const CheckedMap map(reporter, field, {"channel", "z", "pitch", "roll", "x", "y", "yaw"});
+  const CheckedMap map(reporter, field,
+                       {"channel", "z", "pitch", "roll", "x", "y", "yaw", "body", "rotation"});
   Mount3d mount;
   mount.channel = ChannelOr(reporter, map, "CLOUD");
   // The height is what the floor observes; a nominal value is needed to start from.
@@ -123,6 +165,8 @@ Mount3d ReadMount3d(const Reporter& reporter, const Field& field) {
   mount.x = NumberOr(reporter, map, "x", 0.0);
   mount.y = NumberOr(reporter, map, "y", 0.0);
   mount.yaw = NumberOr(reporter, map, "yaw", 0.0);
+  if (const auto f = map.Find("body")) mount.body = ReadBody(reporter, *f);
+  if (const auto f = map.Find("rotation")) mount.rotation = ReadRotation(reporter, *f);
   return mount;
 }
 

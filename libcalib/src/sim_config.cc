@@ -135,7 +135,7 @@ void ReadSensors(const Reporter& r, const Field& field, SimConfig* cfg) {
   }
   if (const auto f = top.Find("lidar3d")) {
     const CheckedMap m(r, *f, {"rate", "rings", "elevation_min", "elevation_max",
-                               "points_per_ring", "range_max", "range_noise", "body"});
+                               "points_per_ring", "range_max", "range_noise", "body", "turret"});
     Lidar3dSensorConfig& l = cfg->lidar3d;
     l.rate_hz = RateOr(r, m, l.rate_hz);
     if (const auto v = m.Find("rings")) l.rings = ReadCount(r, *v);
@@ -148,6 +148,16 @@ void ReadSensors(const Reporter& r, const Field& field, SimConfig* cfg) {
       const CheckedMap box(r, *b, {"min", "max"});
       l.body.min = ReadVector3(r, box.Get("min"));
       l.body.max = ReadVector3(r, box.Get("max"));
+    }
+    if (const auto t = m.Find("turret")) {
+      const CheckedMap turret(r, *t, {"rate", "speed", "start", "axis_pitch", "axis_roll"});
+      l.turret_rate_hz = RateOr(r, turret, l.turret_rate_hz);
+      l.turret_speed = NumberOr(r, turret, "speed", l.turret_speed);
+      l.turret_start = NumberOr(r, turret, "start", l.turret_start);
+      l.turret_axis_pitch = NumberOr(r, turret, "axis_pitch", l.turret_axis_pitch);
+      l.turret_axis_roll = NumberOr(r, turret, "axis_roll", l.turret_axis_roll);
+      if (l.turret_rate_hz > 0 && !(cfg->robot.lidar3d && cfg->robot.lidar3d->rotation))
+        r.Fail(*t, "a turret needs lidar3d.rotation in the robot file (the channel of its angle)");
     }
   }
   if (const auto f = top.Find("pose")) {

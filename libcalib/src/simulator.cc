@@ -8,6 +8,7 @@
 
 #include "agvcal/imu_t.hpp"
 #include "agvcal/laser_scan_t.hpp"
+#include "agvcal/mount_angle_t.hpp"
 #include "agvcal/point_cloud_t.hpp"
 #include "agvcal/pose2d_t.hpp"
 #include "agvcal/wheel_state_t.hpp"
@@ -45,9 +46,9 @@ struct Simulator::State {
   bool have_command = false;
   // Sensor timers: time of the next sample (us).
   int64_t next_wheels = 0, next_scan_end = 0, next_imu = 0, next_cloud = 0, next_pose = 0,
-          next_truth = 0;
+          next_truth = 0, next_turret = 0;
   int64_t wheels_period = 0, scan_period = 0, imu_period = 0, cloud_period = 0, pose_period = 0,
-          truth_period = 0;
+          truth_period = 0, turret_period = 0;
   std::deque<std::pair<int64_t, Pose2>> history;  // true poses, for per-beam lidar timing
   Eigen::Vector2d velocity_world = Eigen::Vector2d::Zero();
   std::deque<std::pair<int64_t, Eigen::Vector2d>> velocity_history;  // for the accelerometer
@@ -69,6 +70,16 @@ struct Simulator::State {
     return Interpolate(a.second, b.second, s);
   }
 };
+
+Eigen::Matrix3d Lidar3dRotation(const Mount3d& mount, const Lidar3dSensorConfig& sensor, double angle) {
+  // R = Ry(axis_pitch) Rx(axis_roll) Rz(angle) Rz(yaw) Ry(pitch) Rx(roll); no turret: the mount.
+  return (Eigen::AngleAxisd(sensor.turret_axis_pitch, Eigen::Vector3d::UnitY()) *
+          Eigen::AngleAxisd(sensor.turret_axis_roll, Eigen::Vector3d::UnitX()) *
+          Eigen::AngleAxisd(angle + mount.yaw, Eigen::Vector3d::UnitZ()) *
+          Eigen::AngleAxisd(mount.pitch, Eigen::Vector3d::UnitY()) *
+          Eigen::AngleAxisd(mount.roll, Eigen::Vector3d::UnitX()))
+      .toRotationMatrix();
+}
 
 Simulator::Simulator(SimConfig config) : config_(std::move(config)), state_(new State) {
   State& s = *state_;
@@ -109,7 +120,9 @@ Simulator::Simulator(SimConfig config) : config_(std::move(config)), state_(new 
   s.cloud_period = PeriodUs(config_.lidar3d.rate_hz);
   s.pose_period = config_.robot.pose ? PeriodUs(config_.pose.rate_hz) : 0;
   s.truth_period = PeriodUs(config_.ground_truth_rate_hz);
-  s.next_wheels = s.next_imu = s.next_cloud = s.next_pose = s.next_truth = utime_;
+  if (config_.robot.lidar3d && config_.robot.lidar3d->rotation)
+    s.turret_period = PeriodUs(config_.lidar3d.turret_rate_hz);
+  s.next_wheels = s.next_imu = s.next_cloud = s.next_pose = s.next_truth = s.next_turret = utime_;
   s.next_scan_end = utime_ + s.scan_period;
 }
 
@@ -314,15 +327,23 @@ void Simulator::AdvanceTo(int64_t until, MessageSink* sink) {
       s.next_scan_end += s.scan_period;
     }
 
+    // Turret angle now (before the cloud, so a cloud at the same time finds it).
+    const double turret_angle =
+        s.turret_period ? WrapAngle(cfg.lidar3d.turret_start +
+                                    cfg.lidar3d.turret_speed * (utime_ - cfg.start_utime) * 1e-6)
+                        : 0.0;
+    if (s.turret_period && s.next_turret <= utime_) {
+      agvcal::mount_angle_t msg{};
+      msg.utime = utime_;
+      msg.angle = turret_angle;
+      sink->Publish(cfg.robot.lidar3d->rotation->channel, utime_, Encode(msg));
+      s.next_turret += s.turret_period;
+    }
+
     if (s.cloud_period && s.next_cloud <= utime_) {
       const Lidar3dSensorConfig& L = cfg.lidar3d;
       const Mount3d& m = cfg.true_lidar3d;
-      // Sensor orientation in the robot frame: R = Rz(yaw) Ry(pitch) Rx(roll).
-      const Eigen::Matrix3d mount_rotation =
-          (Eigen::AngleAxisd(m.yaw, Eigen::Vector3d::UnitZ()) *
-           Eigen::AngleAxisd(m.pitch, Eigen::Vector3d::UnitY()) *
-           Eigen::AngleAxisd(m.roll, Eigen::Vector3d::UnitX()))
-              .toRotationMatrix();
+      const Eigen::Matrix3d mount_rotation = Lidar3dRotation(m, L, turret_angle);
       const Eigen::Matrix3d robot_rotation =
           Eigen::AngleAxisd(pose_.theta, Eigen::Vector3d::UnitZ()).toRotationMatrix();
       const Eigen::Vector3d origin_robot(m.x, m.y, m.z);

@@ -16,6 +16,8 @@ Commands:
   info LOG                    channels, message counts, rates and time span of a recording
   solve ROBOT.yaml LOG        calibrate drive parameters and sensor mount from a recording
   import FORMAT INPUT OUT.log turn a dataset (carmen, mines, lego, optiodom, pose-csv) into a recording
+  ground ROBOT.yaml LOG|CLOUD_FILE [--out RESULT.json]
+                              3D lidar height, pitch and roll above the floor
 Run 'agvcal COMMAND --help' for a command's options.
 
 Exit status: 0 success, 2 unusable input (names the file, place and problem),
@@ -32,6 +34,7 @@ int Run(int argc, char** argv) {
       {"info", agvcal_cli::Info},
       {"solve", agvcal_cli::Solve},
       {"import", agvcal_cli::Import},
+      {"ground", agvcal_cli::Ground},
   };
   const auto it = kCommands.find(argv[1]);
   if (it == kCommands.end())

@@ -8,5 +8,6 @@ int Simulate(int argc, char** argv);
 int Info(int argc, char** argv);
 int Solve(int argc, char** argv);
 int Import(int argc, char** argv);
+int Ground(int argc, char** argv);
 
 }  // namespace agvcal_cli

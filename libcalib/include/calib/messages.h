@@ -31,6 +31,9 @@ inline constexpr const char* kCommanderStatusChannel = "COMMANDER_STATUS";
 inline constexpr const char* kCalibEstimateChannel = "CALIB_ESTIMATE";
 inline constexpr const char* kCalibResidualsChannel = "CALIB_RESIDUALS";
 inline constexpr const char* kScanMatchChannel = "SCAN_MATCH";
+inline constexpr const char* kGroundEstimateChannel = "GROUND_ESTIMATE";
+// Default channel of a turret-mounted 3D lidar's angle (robot file lidar3d.rotation.channel).
+inline constexpr const char* kMountAngleChannel = "LIDAR3D_ANGLE";
 
 // A command for the robot's wheels, named as in the robot file.
 agvcal::drive_command_t ToMessage(const DriveCommand& command, const RobotDescription& robot,

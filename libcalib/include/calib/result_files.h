@@ -5,6 +5,7 @@
 
 #include <string>
 
+#include "calib/atomic_file.h"  // results are written with WriteFileAtomically
 #include "calib/calibration.h"
 #include "calib/robot.h"
 
@@ -18,8 +19,5 @@ std::string CalibrationResultJson(const CalibrationResult& result);
 // standard deviations under `std:` and the log under `source:`. Other keys are kept.
 std::string CalibratedRobotYaml(const RobotDescription& robot, const CalibrationResult& result,
                                 const std::string& log_path);
-
-// Writes PATH.partial and renames it to PATH. Throws InputError naming the path.
-void WriteFileAtomically(const std::string& path, const std::string& text);
 
 }  // namespace calib

@@ -2,6 +2,7 @@
 // The robot description of spec/robot.md: drive type, wheel names, nominal
 // parameters, sensor mounts and motion limits, read from YAML and validated.
 
+#include <array>
 #include <map>
 #include <optional>
 #include <string>
@@ -37,10 +38,29 @@ struct Mount2d {
   double x = 0.0, y = 0.0, yaw = 0.0;
 };
 
+// Axis-aligned box in the robot frame, m: the part of the robot a 3D lidar sees
+// (robot file: lidar3d.body: {min: [x, y, z], max: [x, y, z]}).
+struct BodyBox {
+  std::array<double, 3> min{}, max{};
+};
+
+// A 3D lidar that turns on its mount (a turret): the angle it stands at comes on
+// `channel` as agvcal::mount_angle_t, and its floor pose is calibrated per
+// sector of `sector_width` over [min, max] (robot file: lidar3d.rotation).
+struct MountRotation {
+  std::string channel = "LIDAR3D_ANGLE";
+  double min = -3.14159265358979323846, max = 3.14159265358979323846;  // rad
+  double sector_width = 15.0 * 3.14159265358979323846 / 180.0;          // rad
+  double max_age_s = 0.2;  // an angle older than this (robot clock) is not used for a cloud
+};
+
 // Mount of a 3D lidar: z, pitch, roll relative to the floor; x, y, yaw in the robot frame.
+// Orientation of the sensor in the robot frame: R = Rz(yaw) Ry(pitch) Rx(roll).
 struct Mount3d {
   std::string channel = "CLOUD";
   double x = 0.0, y = 0.0, z = 0.0, roll = 0.0, pitch = 0.0, yaw = 0.0;
+  std::optional<BodyBox> body;          // points inside are the robot itself
+  std::optional<MountRotation> rotation;
 };
 
 struct ImuMount {

@@ -31,7 +31,13 @@
 //           accel_bias: 0.0}
 //     lidar3d: {rate: 0, rings: 16, elevation_min: -0.2618, elevation_max: 0.2618,
 //               points_per_ring: 1800, range_max: 100, range_noise: 0.02,
-//               body: {min: [x, y, z], max: [x, y, z]}}      # robot body box, robot frame
+//               body: {min: [x, y, z], max: [x, y, z]},     # robot body box, robot frame
+//               turret: {rate: 50, speed: 0.5, start: 0, axis_pitch: 0, axis_roll: 0}}
+//       # turret (off unless rate > 0; the robot file's lidar3d needs a rotation): the lidar
+//       # turns at `speed` rad/s from angle `start` about an axis tilted from the robot's
+//       # vertical by Ry(axis_pitch) Rx(axis_roll); sensor orientation in the robot frame
+//       # R(angle) = Ry(axis_pitch) Rx(axis_roll) Rz(angle) Rz(yaw) Ry(pitch) Rx(roll) (true
+//       # mount); the angle goes out as mount_angle_t on lidar3d.rotation.channel at `rate`.
 //     pose: {rate: 0, noise_xy: 0.002, noise_theta: 0.002}
 //     ground_truth: {rate: 100}
 //   effects:                          # spec/effects.md names and parameter keys
@@ -110,7 +116,15 @@ struct Lidar3dSensorConfig {
   double range_max = 100.0;
   double range_noise = 0.02;
   Box3 body{Eigen::Vector3d(-0.5, -0.5, 0.0), Eigen::Vector3d(0.5, 0.5, 0.5)};  // robot frame
+  // Turret (see the config format above); off when turret_rate_hz is 0.
+  double turret_rate_hz = 0.0;
+  double turret_speed = 0.0, turret_start = 0.0;   // rad/s, rad
+  double turret_axis_pitch = 0.0, turret_axis_roll = 0.0;  // rad
 };
+
+// Orientation of the 3D lidar in the robot frame at turret angle `angle`
+// (rad; 0 without a turret): see the config format above.
+Eigen::Matrix3d Lidar3dRotation(const Mount3d& mount, const Lidar3dSensorConfig& sensor, double angle);
 
 struct PoseSensorConfig {
   double rate_hz = 0.0;

@@ -1,0 +1,51 @@
+#include <iostream>
+
+#include "calib/atomic_file.h"
+#include "calib/errors.h"
+#include "calib/ground.h"
+#include "calib/ground_session.h"
+#include "calib/robot.h"
+#include "commands.h"
+#include "common/process_util.h"
+
+namespace agvcal_cli {
+
+namespace {
+const char* kUsage =
+    R"(usage: agvcal ground ROBOT.yaml LOG|CLOUD_FILE [--out RESULT.json] [--config GROUND.yaml]
+                     [--no-grid] [--quiet]
+
+Calibrates the 3D lidar's height, pitch and roll above the floor (robot file
+lidar3d) from the CLOUD messages of a recording, or from one PCD file (.pcd) or
+KITTI Velodyne frame (.bin). Points inside lidar3d.body are the robot itself;
+the floor plane is found by sample consensus and refined by least squares in
+every frame, and the frames are combined. The grid search over (z, pitch, roll)
+runs as a cross-check; both estimates are printed side by side. A lidar that
+turns on its mount (lidar3d.rotation) gets one estimate per sector of its
+rotation range. Method and options: docs/ground.md.
+  --out RESULT.json    write the result (spec/cli.md, plus grid and sectors), atomically
+  --config FILE        options (defaults and every key: config/ground.yaml)
+  --no-grid            skip the grid search
+  --quiet              no table on stdout
+Exit status: 0 calibrated, 2 unusable input (names file, place, problem), 3 the
+floor does not determine the answer (too little floor in view, the robot among
+obstacles, a floor that tilts between frames, a sector without data), 1 internal.
+)";
+}  // namespace
+
+int Ground(int argc, char** argv) {
+  const auto args = agvcal_process::ParseArgs(argc, argv, 2, {"--out", "--config"},
+                                              {"--no-grid", "--quiet"});
+  if (const auto status = agvcal_process::CheckUsage(args, kUsage, 2)) return *status;
+  const calib::RobotDescription robot = calib::LoadRobotFile(args.positional[0]);
+  const calib::GroundOptions options =
+      args.Has("--config") ? calib::LoadGroundOptions(args.Get("--config", "")) : calib::GroundOptions{};
+  calib::GroundInput input;
+  const calib::GroundResult result = calib::CalibrateGroundFile(
+      robot, options, args.positional[1], !args.Has("--no-grid"), &input);
+  if (args.Has("--out")) calib::WriteFileAtomically(args.Get("--out", ""), calib::GroundResultJson(result, input));
+  if (!args.Has("--quiet")) std::cout << calib::GroundResultText(result, input);
+  return calib::kExitOk;
+}
+
+}  // namespace agvcal_cli
