@@ -7,7 +7,11 @@
 namespace calib {
 
 void CalibrationData::AddWheels(const agvcal::wheel_state_t& message, const std::string& origin) {
-  if (!wheels_.Append(WheelSampleFromMessage(message, robot_, origin))) ++dropped_wheels_;
+  AddWheels(WheelSampleFromMessage(message, robot_, origin));
+}
+
+void CalibrationData::AddWheels(const WheelSample& sample) {
+  if (!wheels_.Append(sample)) ++dropped_wheels_;
 }
 
 void CalibrationData::AddPose(const agvcal::pose2d_t& message) {

@@ -4,6 +4,7 @@
 
 #include "calib/errors.h"
 #include "calib/messages.h"
+#include "calib/wheel_track.h"
 
 namespace calib::import_internal {
 
@@ -87,6 +88,20 @@ std::string PoseChannel(const RobotDescription& robot) {
 
 std::string FieldName(std::size_t index, const std::string& what) {
   return "field " + std::to_string(index + 1) + " (" + what + ")";
+}
+
+std::vector<uint8_t> DifferentialTicks::Message(int64_t utime, int64_t left, int64_t right,
+                                                const RobotDescription& robot) {
+  if (first_) {
+    left0_ = left;
+    right0_ = right;
+    first_ = false;
+  }
+  WheelSample sample;
+  sample.utime = utime;
+  sample.position = {double(left - left0_) * rad_per_tick_, double(right - right0_) * rad_per_tick_};
+  sample.steer = {0.0, 0.0};
+  return Encode(WheelStateMessage(sample, robot));
 }
 
 }  // namespace calib::import_internal

@@ -2,6 +2,7 @@
 // What the importers share (importers.h): collecting events and publishing them in time
 // order, the per-stream stamp rule, scan messages, robot checks. Internal to libcalib.
 
+#include <cmath>
 #include <cstdint>
 #include <string>
 #include <vector>
@@ -45,6 +46,21 @@ class StampOrder {
   std::string what_;
   bool any_ = false;
   int64_t last_ = 0;
+};
+
+// Cumulative encoder ticks of a differential drive's left and right wheels -> the
+// WHEELS message, positions counted from the first reading (rad).
+class DifferentialTicks {
+ public:
+  explicit DifferentialTicks(double ticks_per_revolution)
+      : rad_per_tick_(2.0 * M_PI / ticks_per_revolution) {}
+  std::vector<uint8_t> Message(int64_t utime, int64_t left, int64_t right,
+                               const RobotDescription& robot);
+
+ private:
+  double rad_per_tick_;
+  bool first_ = true;
+  int64_t left0_ = 0, right0_ = 0;
 };
 
 // A scan with the geometry given; scan_time is set by SetScanTimes.

@@ -61,13 +61,11 @@ ImportSummary ImportLego(const std::string& motors_path, const std::string& scan
   RequireDrive(robot, DriveType::kDifferential, "Lego robot");
   ImportSummary summary;
   EventBuffer events;
-  const double tick = 2.0 * M_PI / kTicksPerRevolution;
+  DifferentialTicks ticks(kTicksPerRevolution);
   std::string line;
 
   TextReader motors(motors_path);
   StampOrder motor_order("motor");
-  bool first = true;
-  int64_t left0 = 0, right0 = 0;
   while (motors.Next(&line)) {
     const std::vector<std::string> f = SplitFields(line);
     if (f.empty()) continue;
@@ -78,16 +76,7 @@ ImportSummary ImportLego(const std::string& motors_path, const std::string& scan
     for (std::size_t k = 3; k < f.size(); ++k)
       if (k != 6) ParseInteger(motors, f[k], FieldName(k, "motor value"));
     if (!motor_order.Accept(motors, utime)) continue;
-    if (first) {
-      left0 = left;
-      right0 = right;
-      first = false;
-    }
-    WheelSample sample;
-    sample.utime = utime;
-    sample.position = {double(left - left0) * tick, double(right - right0) * tick};
-    sample.steer = {0.0, 0.0};
-    events.Add(kWheelsStream, kWheelsChannel, utime, Encode(WheelStateMessage(sample, robot)));
+    events.Add(kWheelsStream, kWheelsChannel, utime, ticks.Message(utime, left, right, robot));
   }
   summary.lines += motors.line_number();
 

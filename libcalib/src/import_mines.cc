@@ -31,9 +31,7 @@ ImportSummary ImportMines(const std::string& path, const RobotDescription& robot
   StampOrder order("line");
   EventBuffer events;
   std::vector<agvcal::laser_scan_t> scans;
-  const double tick = 2.0 * M_PI / kTicksPerRevolution;
-  bool first = true;
-  int64_t left0 = 0, right0 = 0;
+  DifferentialTicks ticks(kTicksPerRevolution);
 
   TextReader reader(path);
   std::string line;
@@ -55,16 +53,7 @@ ImportSummary ImportMines(const std::string& path, const RobotDescription& robot
       ranges[i] = static_cast<float>(mm * 1e-3);  // 0 and error codes fall below range_min
     }
     if (!order.Accept(reader, utime)) continue;
-    if (first) {
-      left0 = left;
-      right0 = right;
-      first = false;
-    }
-    WheelSample sample;
-    sample.utime = utime;
-    sample.position = {double(left - left0) * tick, double(right - right0) * tick};
-    sample.steer = {0.0, 0.0};
-    events.Add(kWheelsStream, kWheelsChannel, utime, Encode(WheelStateMessage(sample, robot)));
+    events.Add(kWheelsStream, kWheelsChannel, utime, ticks.Message(utime, left, right, robot));
     scans.push_back(MakeScan(utime, -kFieldOfView / 2, kFieldOfView / (kBeams - 1), kRangeMin,
                              kRangeMax, std::move(ranges)));
   }

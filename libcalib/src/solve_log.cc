@@ -63,9 +63,10 @@ CalibrationData ReadCalibrationData(const RobotDescription& robot, const std::st
       if (!Decode(event.data.data(), size, &m))
         throw InputError(log_path, EventPlace(event), "does not decode as wheel_state_t");
       const std::string origin = log_path + ": " + EventPlace(event);
-      data.AddWheels(m, origin);
+      const WheelSample sample = WheelSampleFromMessage(m, robot, origin);
+      data.AddWheels(sample);
       if (matcher) {
-        matcher->AddWheels(WheelSampleFromMessage(m, robot, origin));
+        matcher->AddWheels(sample);
         take_matches();
       }
     } else if (matcher && event.channel == scan_channel) {

@@ -24,6 +24,7 @@ class CalibrationData {
 
   // Throws InputError (naming `origin`) for a wheel state without the robot's wheels.
   void AddWheels(const agvcal::wheel_state_t& message, const std::string& origin);
+  void AddWheels(const WheelSample& sample);
   // An external pose: the motion since the previous pose becomes a SensorMotion.
   void AddPose(const agvcal::pose2d_t& message);
   // A scan-matched (or otherwise measured) sensor motion.
