@@ -499,6 +499,21 @@ ScanMatchPipeline::ScanMatchPipeline(const RobotDescription& robot, ScanMatchOpt
 
 ScanMatchPipeline::~ScanMatchPipeline() = default;
 
+namespace {
+// An encoder gap is a dropout when it is longer than max_wheel_gap_s and
+// than wheel_gap_factor times the pair's shortest encoder interval: a slow
+// encoder stream (a few Hz) is the recording's rate, not a gap. Only the
+// pair's own samples count, so live and offline agree whatever the
+// interleaving.
+bool WheelGapTooLong(const std::vector<int64_t>& intervals, const ScanMatchOptions& options) {
+  if (intervals.empty()) return false;
+  const auto [shortest, longest] = std::minmax_element(intervals.begin(), intervals.end());
+  double limit_s = options.max_wheel_gap_s;
+  if (intervals.size() >= 2) limit_s = std::max(limit_s, options.wheel_gap_factor * double(*shortest) * 1e-6);
+  return double(*longest) > limit_s * 1e6;
+}
+}  // namespace
+
 void ScanMatchPipeline::AddWheels(const WheelSample& sample) {
   if (sample.position.size() != num_wheels_ || sample.steer.size() != num_wheels_)
     throw std::invalid_argument("ScanMatchPipeline::AddWheels: sample has " +
@@ -583,10 +598,10 @@ void ScanMatchPipeline::Process(bool finishing) {
           std::upper_bound(samples.begin(), samples.end(), t0,
                            [](double t, const WheelSample& s) { return t < double(s.utime); });
       if (it != samples.begin()) --it;
-      int64_t gap = 0;
+      std::vector<int64_t> intervals;
       for (; it + 1 != samples.end() && double(it->utime) < double(scan.end_utime()); ++it)
-        gap = std::max(gap, (it + 1)->utime - it->utime);
-      if (gap > std::llround(options_.max_wheel_gap_s * 1e6)) {
+        intervals.push_back((it + 1)->utime - it->utime);
+      if (WheelGapTooLong(intervals, options_)) {
         motion.valid = false;
         ++counts_.wheel_gaps;
       }

@@ -89,6 +89,13 @@ CalibrationData ReadCalibrationData(const RobotDescription& robot, const std::st
   if (matcher) {
     matcher->Finish();
     take_matches();
+    if (progress) {
+      const ScanMatchCounts& c = matcher->counts();
+      progress("scan matcher: " + std::to_string(c.scans) + " scans, " + std::to_string(c.matches) +
+               " matched pairs (" + std::to_string(c.invalid) + " failed, of which " +
+               std::to_string(c.wheel_gaps) + " over encoder gaps; " + std::to_string(c.degenerate) +
+               " degenerate)");
+    }
   }
   return data;
 }

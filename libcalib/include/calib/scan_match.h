@@ -105,7 +105,9 @@ struct ScanMatchOptions {
   // Pipeline.
   bool deskew = true;                // false: every beam taken at the scan's utime
   double deskew_smoothing_s = 0.03;  // encoder readings smoothed over the scan and this margin
-  double max_wheel_gap_s = 0.25;     // longer encoder gaps within a pair: match invalid
+  // An encoder gap within a pair longer than both of these makes the match invalid:
+  double max_wheel_gap_s = 0.25;     // s
+  double wheel_gap_factor = 2.5;     // times the pair's shortest encoder interval
   // A scan is matched to the previous matched scan (keyframe) once the odometry says
   // the sensor moved this far, turned this much, or this much time passed.
   double keyframe_translation_m = 0.2;
@@ -213,7 +215,7 @@ struct ScanMatchCounts {
   int64_t matches = 0;          // results produced
   int64_t invalid = 0;          // of which valid = false
   int64_t degenerate = 0;       // of which degenerate
-  int64_t wheel_gaps = 0;       // of the invalid: an encoder gap longer than max_wheel_gap_s
+  int64_t wheel_gaps = 0;       // of the invalid: an encoder gap too long (max_wheel_gap_s)
   int64_t between_keyframes = 0;  // scans skipped: too little motion since the last keyframe
 };
 
