@@ -500,17 +500,12 @@ ScanMatchPipeline::ScanMatchPipeline(const RobotDescription& robot, ScanMatchOpt
 ScanMatchPipeline::~ScanMatchPipeline() = default;
 
 namespace {
-// An encoder gap is a dropout when it is longer than max_wheel_gap_s and
-// than wheel_gap_factor times the pair's shortest encoder interval: a slow
-// encoder stream (a few Hz) is the recording's rate, not a gap. Only the
-// pair's own samples count, so live and offline agree whatever the
-// interleaving.
-bool WheelGapTooLong(const std::vector<int64_t>& intervals, const ScanMatchOptions& options) {
-  if (intervals.empty()) return false;
-  const auto [shortest, longest] = std::minmax_element(intervals.begin(), intervals.end());
-  double limit_s = options.max_wheel_gap_s;
-  if (intervals.size() >= 2) limit_s = std::max(limit_s, options.wheel_gap_factor * double(*shortest) * 1e-6);
-  return double(*longest) > limit_s * 1e6;
+// The median of the last few encoder intervals: the stream's own rate.
+int64_t MedianInterval(std::deque<int64_t> intervals) {
+  if (intervals.empty()) return 0;
+  auto middle = intervals.begin() + intervals.size() / 2;
+  std::nth_element(intervals.begin(), middle, intervals.end());
+  return *middle;
 }
 }  // namespace
 
@@ -519,11 +514,18 @@ void ScanMatchPipeline::AddWheels(const WheelSample& sample) {
     throw std::invalid_argument("ScanMatchPipeline::AddWheels: sample has " +
                                 std::to_string(sample.position.size()) + " wheels, expected " +
                                 std::to_string(num_wheels_));
+  const bool had_samples = !track_.samples().empty();
+  const int64_t previous_utime = had_samples ? track_.samples().back().utime : 0;
   if (!track_.Append(sample)) {
     ++counts_.wheels_dropped;
     return;
   }
   ++counts_.wheels;
+  if (had_samples) {
+    recent_intervals_.push_back(sample.utime - previous_utime);
+    if (recent_intervals_.size() > 15) recent_intervals_.pop_front();
+  }
+  typical_interval_.emplace_back(sample.utime, MedianInterval(recent_intervals_));
   Process();
 }
 
@@ -598,10 +600,21 @@ void ScanMatchPipeline::Process(bool finishing) {
           std::upper_bound(samples.begin(), samples.end(), t0,
                            [](double t, const WheelSample& s) { return t < double(s.utime); });
       if (it != samples.begin()) --it;
-      std::vector<int64_t> intervals;
+      // A gap is a dropout when it is longer than max_wheel_gap_s and than
+      // wheel_gap_factor times the stream's median interval before the pair
+      // (a slow encoder stream is the recording's rate, not a gap). The
+      // median is taken over samples before the pair only, so live and
+      // offline agree whatever the interleaving.
+      const int64_t typical =
+          std::lower_bound(typical_interval_.begin(), typical_interval_.end(), it->utime,
+                           [](const std::pair<int64_t, int64_t>& e, int64_t t) { return e.first < t; })
+              ->second;
+      const double limit_us =
+          1e6 * std::max(options_.max_wheel_gap_s, options_.wheel_gap_factor * double(typical) * 1e-6);
+      int64_t gap = 0;
       for (; it + 1 != samples.end() && double(it->utime) < double(scan.end_utime()); ++it)
-        intervals.push_back((it + 1)->utime - it->utime);
-      if (WheelGapTooLong(intervals, options_)) {
+        gap = std::max(gap, (it + 1)->utime - it->utime);
+      if (double(gap) > limit_us) {
         motion.valid = false;
         ++counts_.wheel_gaps;
       }
@@ -630,6 +643,7 @@ void ScanMatchPipeline::ReleaseOldWheels() {
   WheelTrack kept;
   for (; it != samples.end(); ++it) kept.Append(*it);
   track_ = std::move(kept);
+  while (typical_interval_.front().first < track_.samples().front().utime) typical_interval_.pop_front();
 }
 
 }  // namespace calib

@@ -65,6 +65,7 @@
 #include <deque>
 #include <memory>
 #include <optional>
+#include <utility>
 #include <vector>
 
 #include <Eigen/Core>
@@ -107,7 +108,7 @@ struct ScanMatchOptions {
   double deskew_smoothing_s = 0.03;  // encoder readings smoothed over the scan and this margin
   // An encoder gap within a pair longer than both of these makes the match invalid:
   double max_wheel_gap_s = 0.25;     // s
-  double wheel_gap_factor = 2.5;     // times the pair's shortest encoder interval
+  double wheel_gap_factor = 2.5;     // times the median of the last 15 encoder intervals
   // A scan is matched to the previous matched scan (keyframe) once the odometry says
   // the sensor moved this far, turned this much, or this much time passed.
   double keyframe_translation_m = 0.2;
@@ -258,6 +259,8 @@ class ScanMatchPipeline {
   Pose2 mount_;
   std::size_t num_wheels_ = 0;
   WheelTrack track_;
+  std::deque<int64_t> recent_intervals_;                       // last encoder intervals, us
+  std::deque<std::pair<int64_t, int64_t>> typical_interval_;  // per track sample: utime, median interval
   std::deque<LaserScan> pending_;
   std::optional<PreparedScan> reference_;
   bool have_scan_ = false;
