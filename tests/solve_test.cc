@@ -78,13 +78,13 @@ TEST_P(LidarCalibration, MeetsTheAccuracyTargets) {
   EXPECT_LT(r.residual.outliers, r.residual.intervals / 20);
 }
 
-INSTANTIATE_TEST_SUITE_P(DriveTypes, LidarCalibration, ::testing::Values("diff_robot", "forklift"));
-// dual_steer_agv: `a` is not yet determined by the default trajectory (issue 3 notes).
+INSTANTIATE_TEST_SUITE_P(DriveTypes, LidarCalibration,
+                         ::testing::Values("diff_robot", "forklift", "dual_steer_agv"));
 
 // Over 20 seeds the reported sigmas are honest: |error| / sigma within 3 for 95 % of the
 // estimated values (the short demo trajectory keeps this quick; honesty does not need length).
 TEST(LidarCalibration, SigmasAreHonestOverTwentySeeds) {
-  for (const std::string name : {"diff_robot", "forklift"}) {
+  for (const std::string name : {"diff_robot", "forklift", "dual_steer_agv"}) {
     int within = 0, total = 0;
     for (uint64_t seed = 100; seed < 120; ++seed) {
       const SimConfig config = LidarSim(name, seed);

@@ -50,6 +50,28 @@ Pose<T> Exp(const T& dx, const T& dy, const T& dtheta) {
   return {a * dx - b * dy, b * dx + a * dy, dtheta};
 }
 
+// Dual steer: the weight of a wheel's sideways velocity against its rolling
+// velocity in the compromise two fighting wheels reach. A tire resists slip
+// along its rolling direction much more than sideways (cornering), and the
+// ratio must be well below 1: with equal weights the compromise depends on a
+// and b only through one combination, and no motion could separate them.
+constexpr double kDualSteerCorneringCompliance = 0.1;
+
+// x = n⁻¹ rhs for a symmetric positive definite 3×3 n, by cofactors (any scalar type).
+template <typename T>
+void SolveSymmetric3(const T (&n)[3][3], const T (&rhs)[3], T* x0, T* x1, T* x2) {
+  const T c00 = n[1][1] * n[2][2] - n[1][2] * n[2][1];
+  const T c01 = n[1][2] * n[2][0] - n[1][0] * n[2][2];
+  const T c02 = n[1][0] * n[2][1] - n[1][1] * n[2][0];
+  const T c11 = n[0][0] * n[2][2] - n[0][2] * n[2][0];
+  const T c12 = n[0][1] * n[2][0] - n[0][0] * n[2][1];
+  const T c22 = n[0][0] * n[1][1] - n[0][1] * n[1][0];
+  const T det = n[0][0] * c00 + n[0][1] * c01 + n[0][2] * c02;
+  *x0 = (c00 * rhs[0] + c01 * rhs[1] + c02 * rhs[2]) / det;
+  *x1 = (c01 * rhs[0] + c11 * rhs[1] + c12 * rhs[2]) / det;
+  *x2 = (c02 * rhs[0] + c12 * rhs[1] + c22 * rhs[2]) / det;
+}
+
 // Body displacement (dx, dy, dtheta) of the reference point for one encoder
 // step: `params` in ParamNames(type) order, `rotation` the drive rotation of
 // each wheel over the step (rad), `steer` each wheel's raw steering reading
@@ -76,17 +98,28 @@ void BodyDisplacement(DriveType type, const T* params, const T* rotation, const 
       return;
     }
     case DriveType::kDualSteer: {  // a1_radius, a1_steer_offset, b, a2_radius, a
-      // Least squares over the four contact-point components, a1 at (b, 0), a2 at (0, -a):
-      // v1 = (vx, vy + w b), v2 = (vx + w a, vy). The normal equations solve in closed form.
-      const T b = params[2], a = params[4];
-      const T s1 = params[0] * rotation[0], alpha1 = steer[0] - params[1];
-      const T s2 = params[3] * rotation[1], alpha2 = steer[1];
-      const T v1x = s1 * cos(alpha1), v1y = s1 * sin(alpha1);
-      const T v2x = s2 * cos(alpha2), v2y = s2 * sin(alpha2);
-      const T sum_x = v1x + v2x, sum_y = v1y + v2y;
-      *dtheta = (2.0 * (b * v1y + a * v2x) - a * sum_x - b * sum_y) / (a * a + b * b);
-      *dx = 0.5 * (sum_x - a * *dtheta);
-      *dy = 0.5 * (sum_y - b * *dtheta);
+      // Two driven wheels over-determine the body motion (four equations, three unknowns);
+      // when they disagree they fight and the body takes the compromise their tires allow:
+      // the weighted least squares over the contact-point velocities, each wheel's rolling
+      // (longitudinal) component stiff and its sideways (cornering) component compliant
+      // (research/mismatch.md 1.11). a1 at (b, 0), a2 at (0, -a).
+      const T alpha[2] = {steer[0] - params[1], steer[1]};
+      const T rolled[2] = {params[0] * rotation[0], params[3] * rotation[1]};
+      const T px[2] = {params[2], T(0.0)}, py[2] = {T(0.0), -params[4]};
+      T n[3][3] = {{T(0.0), T(0.0), T(0.0)}, {T(0.0), T(0.0), T(0.0)}, {T(0.0), T(0.0), T(0.0)}};
+      T rhs[3] = {T(0.0), T(0.0), T(0.0)};
+      for (int i = 0; i < 2; ++i) {
+        const T c = cos(alpha[i]), s = sin(alpha[i]);
+        // Rows: velocity of the contact point along the wheel (= rolled) and across it (= 0).
+        const T along[3] = {c, s, c * -py[i] + s * px[i]};
+        const T across[3] = {-s, c, -s * -py[i] + c * px[i]};
+        for (int r = 0; r < 3; ++r) {
+          rhs[r] += along[r] * rolled[i];
+          for (int k = 0; k < 3; ++k)
+            n[r][k] += along[r] * along[k] + kDualSteerCorneringCompliance * across[r] * across[k];
+        }
+      }
+      SolveSymmetric3(n, rhs, dx, dy, dtheta);
       return;
     }
   }
