@@ -24,19 +24,25 @@ for log in "$work"/*.log; do
     *) continue ;;
   esac
   out=$work/$name.json
-  if "$agvcal" solve "$robots/$robot" "$log" --fit-fraction 0.5 --time-offset --quiet --out "$out" \
-       > "$work/$name.txt" 2> "$work/$name.err"; then
-    python3 - "$out" "$name" "$robot" <<'PY'
+  solve() { "$agvcal" solve "$robots/$robot" "$log" --fit-fraction 0.5 --quiet --out "$out" "$@" \
+              > "$work/$name.txt" 2> "$work/$name.err"; }
+  # The time offset is estimated where the recording determines it (exit 3 names it otherwise).
+  note=""
+  solve --time-offset; status=$?
+  if [ $status = 3 ] && grep -q "determine time_offset" "$work/$name.err"; then
+    solve; status=$?; note=" (time offset not determined: 0)"
+  fi
+  if [ $status = 0 ]; then
+    python3 - "$out" "$name" "$robot" "$note" <<'PY'
 import json, sys
 r = json.load(open(sys.argv[1]))
-src = 'lidar2d' if 'lidar2d' in r else 'pose'
+src = ('lidar2d' if 'lidar2d' in r else 'pose') + sys.argv[4]
 params = ', '.join(f"{k} {v['nominal']:.4g} → {v['value']:.4g} ± {v['std']:.2g}" for k, v in r['params'].items())
-off = r[src].get('time_offset') if src == 'lidar2d' else None
 h = r.get('heldout', {})
 print(f"| {sys.argv[2]} | {sys.argv[3]} | {src} | {params} | "
       f"{h['nominal']['error_per_metre']:.4f} → {h['calibrated']['error_per_metre']:.4f} |")
 PY
   else
-    echo "| $name | $robot | | exit $?: $(head -c 200 "$work/$name.err" | tr '\n|' ' /') | |"
+    echo "| $name | $robot | | exit $status: $(head -c 200 "$work/$name.err" | tr '\n|' ' /') | |"
   fi
 done

@@ -11,8 +11,10 @@
 // raw steering setpoints, what a commander or a simulator needs.
 //
 // Dual steer has four contact-point velocity components for three unknowns
-// (vx, vy, omega); Forward and Integrate take the least-squares solution, which
-// is exact when the two wheels agree (wheel slip spreads over all three).
+// (vx, vy, omega); Forward and Integrate take the weighted least-squares
+// solution, which is exact when the two wheels agree; when they fight, the
+// sideways (cornering) components give way more than the rolling ones
+// (kinematics_generic.h).
 //
 // Reference points and parameters (spec/robot.md):
 //   differential: middle of the drive axle; left_radius, right_radius, track.
