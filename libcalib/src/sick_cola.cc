@@ -1,5 +1,6 @@
 #include "calib/sick_cola.h"
 
+#include <algorithm>
 #include <cmath>
 #include <cstdio>
 #include <cstring>
@@ -169,6 +170,20 @@ std::string FormatLmdScandata(const SickScan& s) {
   add("0");  // 8-bit channels
   add("0 0 0 0 0");  // position, name, comment, time, event
   return t;
+}
+
+SickScan SickScanFromMessage(const agvcal::laser_scan_t& scan, double angle_offset_deg) {
+  SickScan s;
+  s.start_angle = int32_t(std::lround((scan.angle_min * 180.0 / M_PI - angle_offset_deg) * 1e4));
+  s.angular_step = uint32_t(std::lround(std::abs(scan.angle_increment) * 180.0 / M_PI * 1e4));
+  s.scan_frequency = scan.scan_time > 0 ? uint32_t(std::lround(100.0 / scan.scan_time)) : 0;
+  s.measurement_frequency = scan.time_increment > 0 ? uint32_t(std::lround(0.01 / scan.time_increment)) : 0;
+  for (int i = 0; i < scan.nranges; ++i) {
+    const float r = scan.ranges[i];
+    const bool hit = std::isfinite(r) && r >= scan.range_min && r <= scan.range_max;
+    s.distances.push_back(hit ? uint32_t(std::clamp<long>(std::lround(r * 1000.0), 1, 65535)) : 0);
+  }
+  return s;
 }
 
 void StxEtxFramer::Append(const char* data, std::size_t size) { buffer_.append(data, size); }

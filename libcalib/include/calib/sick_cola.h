@@ -62,6 +62,11 @@ SickScan ParseLmdScandata(const std::string& telegram, const std::string& origin
 // The telegram text of a scan (without STX/ETX): the inverse of ParseLmdScandata.
 std::string FormatLmdScandata(const SickScan& scan);
 
+// The telegram content a SICK scanner would send for a scan message (for the
+// emulator and tests): device angle = sensor angle - angle_offset_deg, ranges
+// in whole mm (0 for no return), device timestamps left 0 for the caller.
+SickScan SickScanFromMessage(const agvcal::laser_scan_t& scan, double angle_offset_deg);
+
 // True for the text of an LMDscandata scan telegram (sSN or sRA).
 bool IsLmdScandata(const std::string& telegram);
 
