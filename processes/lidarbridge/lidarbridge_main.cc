@@ -3,7 +3,6 @@
 // decoding and the device-clock mapping are libcalib's SickScanDecoder.
 #include <lcm/lcm-cpp.hpp>
 
-#include <netdb.h>
 #include <poll.h>
 #include <sys/socket.h>
 #include <unistd.h>
@@ -16,6 +15,7 @@
 #include "calib/errors.h"
 #include "calib/sick_cola.h"
 #include "common/process_util.h"
+#include "common/tcp_util.h"
 
 namespace {
 
@@ -34,40 +34,6 @@ Exit status: 0 stopped, 2 bad config or options, 1 internal error.
 
 using agvcal_process::g_stop_requested;
 using agvcal_process::WallMicros;
-
-// A connected socket, or -1 (reason in *error).
-int Connect(const std::string& host, const std::string& port, std::string* error) {
-  addrinfo hints{};
-  hints.ai_family = AF_UNSPEC;
-  hints.ai_socktype = SOCK_STREAM;
-  addrinfo* found = nullptr;
-  const int rc = getaddrinfo(host.c_str(), port.c_str(), &hints, &found);
-  if (rc != 0) {
-    *error = gai_strerror(rc);
-    return -1;
-  }
-  int fd = -1;
-  for (addrinfo* a = found; a && fd < 0; a = a->ai_next) {
-    fd = socket(a->ai_family, a->ai_socktype, a->ai_protocol);
-    if (fd >= 0 && connect(fd, a->ai_addr, a->ai_addrlen) != 0) {
-      *error = std::strerror(errno);
-      close(fd);
-      fd = -1;
-    }
-  }
-  freeaddrinfo(found);
-  return fd;
-}
-
-bool SendAll(int fd, const std::string& text) {
-  std::size_t sent = 0;
-  while (sent < text.size()) {
-    const ssize_t n = send(fd, text.data() + sent, text.size() - sent, MSG_NOSIGNAL);
-    if (n <= 0) return false;
-    sent += std::size_t(n);
-  }
-  return true;
-}
 
 int Run(int argc, char** argv) {
   using namespace agvcal_process;
@@ -90,7 +56,7 @@ int Run(int argc, char** argv) {
   while (!g_stop_requested) {
     heartbeat.Beat("connecting to " + origin, true);
     std::string error;
-    const int fd = Connect(host, port, &error);
+    const int fd = ConnectTcp(host, port, &error);
     if (fd < 0) {
       if (error != last_error) std::cerr << "agvcal-lidarbridge: " << origin << ": " << error << "; retrying\n";
       last_error = error;
@@ -102,7 +68,7 @@ int Run(int argc, char** argv) {
     std::cerr << "agvcal-lidarbridge: connected to " << origin << "\n";
     decoder.Reset();  // the device may have restarted: its clock with it
     calib::StxEtxFramer framer;
-    bool open = SendAll(fd, std::string(1, calib::kStx) + "sEN LMDscandata 1" + calib::kEtx);
+    bool open = SendAll(fd, calib::FrameTelegram("sEN LMDscandata 1"));
     char buffer[65536];
     while (open && !g_stop_requested) {
       heartbeat.Beat("streaming " + std::to_string(scans) + " scans");

@@ -19,6 +19,7 @@
 #include "calib/recording.h"
 #include "calib/sick_cola.h"
 #include "common/process_util.h"
+#include "common/tcp_util.h"
 
 namespace {
 
@@ -60,16 +61,6 @@ void SleepUntil(int64_t wall_us) {
     if (left <= 0) return;
     std::this_thread::sleep_for(std::chrono::microseconds(std::min<int64_t>(left, 100000)));
   }
-}
-
-bool SendAll(int fd, const std::string& text) {
-  std::size_t sent = 0;
-  while (sent < text.size()) {
-    const ssize_t n = send(fd, text.data() + sent, text.size() - sent, MSG_NOSIGNAL);
-    if (n <= 0) return false;
-    sent += std::size_t(n);
-  }
-  return true;
 }
 
 int Run(int argc, char** argv) {
@@ -121,7 +112,7 @@ int Run(int argc, char** argv) {
     framer.Append(buffer, std::size_t(n));
     while (framer.Next(&telegram)) {
       const bool start = telegram == "sEN LMDscandata 1";
-      SendAll(client, std::string(1, calib::kStx) + (start ? "sEA LMDscandata 1" : "sFA 1") + calib::kEtx);
+      SendAll(client, calib::FrameTelegram(start ? "sEA LMDscandata 1" : "sFA 1"));
       streaming = streaming || start;
     }
   }
@@ -144,7 +135,7 @@ int Run(int argc, char** argv) {
     s.time_since_startup_us = device(double(m.utime - first));
     s.time_of_transmission_us = device(double(m.utime - first) + transmit_after_us);
     SleepUntil(wall_start + (m.utime - first) + std::llround(transmit_after_us + late(rng)));
-    if (!SendAll(client, std::string(1, calib::kStx) + calib::FormatLmdScandata(s) + calib::kEtx)) break;
+    if (!SendAll(client, calib::FrameTelegram(calib::FormatLmdScandata(s)))) break;
     ++sent;
   }
   close(client);

@@ -70,6 +70,9 @@ SickScan SickScanFromMessage(const agvcal::laser_scan_t& scan, double angle_offs
 // True for the text of an LMDscandata scan telegram (sSN or sRA).
 bool IsLmdScandata(const std::string& telegram);
 
+// STX + text + ETX.
+inline std::string FrameTelegram(const std::string& text) { return kStx + text + kEtx; }
+
 // Splits a TCP byte stream into telegrams: bytes outside STX..ETX are dropped
 // (counted), a frame longer than max_bytes without ETX is dropped.
 class StxEtxFramer {
