@@ -18,12 +18,13 @@
 
 #include "calib/canopen.h"
 #include "calib/errors.h"
+#include "calib/robot.h"
 #include "common/process_util.h"
 
 namespace {
 
-const char* kUsage = R"(usage: agvcal-canbridge CONFIG.yaml --can IFACE [--lcm-url URL]
-       agvcal-canbridge CONFIG.yaml --candump FILE [--speed X] [--lcm-url URL]
+const char* kUsage = R"(usage: agvcal-canbridge CONFIG.yaml --can IFACE [--robot ROBOT.yaml] [--lcm-url URL]
+       agvcal-canbridge CONFIG.yaml --candump FILE [--speed X] [--robot ROBOT.yaml] [--lcm-url URL]
 
 Encoder bridge for CANopen drives and steering encoders: decodes the
 synchronous TPDOs of the nodes in CONFIG.yaml (config/bridges/*_can.yaml,
@@ -31,6 +32,7 @@ format in libcalib/include/calib/canopen.h) and publishes wheel_state_t on
 WHEELS (or the config's channel), stamped with the SYNC producer's clock.
   --can IFACE     read a SocketCAN interface live (e.g. can0), until Ctrl-C
   --candump FILE  replay a 'candump -l' log with its recorded stamps, then exit
+  --robot FILE    check that CONFIG.yaml reports every wheel of this robot file
   --speed X       replay speed: log seconds per wall-clock second (default 1;
                   0 = as fast as possible)
   --lcm-url URL   LCM provider (default: $LCM_DEFAULT_URL or LCM's default)
@@ -156,7 +158,7 @@ void Live(Bridge* bridge, const std::string& iface) {
 
 int Run(int argc, char** argv) {
   using namespace agvcal_process;
-  const Args args = ParseArgs(argc, argv, 1, {"--can", "--candump", "--speed", "--lcm-url"}, {});
+  const Args args = ParseArgs(argc, argv, 1, {"--can", "--candump", "--speed", "--robot", "--lcm-url"}, {});
   if (const auto status = CheckUsage(args, kUsage, 1)) return *status;
   if (args.Has("--can") == args.Has("--candump"))
     throw calib::InputError("command line", "", "give exactly one of --can IFACE and --candump FILE");
@@ -165,6 +167,17 @@ int Run(int argc, char** argv) {
   const double speed = args.GetDouble("--speed", 1.0);
   if (!(speed >= 0)) throw calib::InputError("command line", "--speed", "must be >= 0");
   calib::CanBridgeConfig config = calib::LoadCanBridgeConfig(args.positional[0]);
+  if (args.Has("--robot")) {
+    const calib::RobotDescription robot = calib::LoadRobotFile(args.Get("--robot", ""));
+    for (const std::string& role : calib::WheelRoles(robot.drive)) {
+      const std::string& name = robot.wheel_name(role);
+      bool found = false;
+      for (const calib::CanWheelConfig& w : config.wheels) found = found || w.name == name;
+      if (!found)
+        throw calib::InputError(config.source_file, "wheels",
+                                "no wheel '" + name + "' (role " + role + " in " + robot.source_file + ")");
+    }
+  }
   if (args.Has("--candump")) calib::CandumpReader probe(args.Get("--candump", ""));  // readable?
 
   const std::string url = args.Get("--lcm-url", "");

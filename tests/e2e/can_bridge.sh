@@ -13,7 +13,7 @@ bridge=$BUILD/agvcal-canbridge
 
 "$BUILD/tests/bridge_check" candump "$config" "$log" "$TMP/forklift.candump" 2 >/dev/null
 expect_status 0 "replay as fast as possible into file://" \
-  "$bridge" "$config" --candump "$TMP/forklift.candump" --speed 0 --lcm-url "file://$TMP/fast.log?mode=w"
+  "$bridge" "$config" --robot config/robots/forklift.yaml --candump "$TMP/forklift.candump" --speed 0 --lcm-url "file://$TMP/fast.log?mode=w"
 stderr_has "2901 wheel states, 2901 SYNCs (0 lost), 0 incomplete cycles"
 if "$BUILD/tests/bridge_check" wheels "$log" "$TMP/fast.log" 10 50; then
   pass "wheel states equal the recording's"
@@ -51,6 +51,9 @@ expect_status 2 "a CAN FD line" "$bridge" "$config" --candump "$TMP/fd.candump" 
 stderr_has "fd.candump: line 1: CAN FD frame"
 expect_status 2 "no such interface" timeout 20 scripts/netns-run "$bridge" "$config" --can nosuchcan0
 stderr_has "--can nosuchcan0: "   # no such interface (or no CAN support in the kernel)
+expect_status 2 "config without the robot's wheels" "$bridge" config/bridges/diff_robot_can.yaml \
+  --robot config/robots/forklift.yaml --candump "$TMP/forklift.candump"
+stderr_has "diff_robot_can.yaml: wheels: no wheel 'drive' (role drive in config/robots/forklift.yaml)"
 expect_status 2 "both sources" "$bridge" "$config" --can can0 --candump "$TMP/forklift.candump"
 expect_status 0 "--help" "$bridge" --help
 finish
