@@ -1,0 +1,148 @@
+// agvcal-sickemu: a SICK CoLa-A scanner emulator on TCP, serving the scans of
+// a recording as LMDscandata telegrams with the device's own timestamps, for
+// testing agvcal-lidarbridge (and trying it) without a scanner.
+#include <netinet/in.h>
+#include <arpa/inet.h>
+#include <poll.h>
+#include <sys/socket.h>
+#include <unistd.h>
+
+#include <cerrno>
+#include <cstring>
+#include <iostream>
+#include <random>
+#include <thread>
+
+#include "agvcal/laser_scan_t.hpp"
+#include "calib/errors.h"
+#include "calib/messages.h"
+#include "calib/recording.h"
+#include "calib/sick_cola.h"
+#include "common/process_util.h"
+#include "common/tcp_util.h"
+
+namespace {
+
+const char* kUsage = R"(usage: agvcal-sickemu LOG [--port P] [--bind ADDR] [--channel SCAN]
+                      [--jitter-ms J] [--drift-ppm D] [--boot-us B] [--seed N]
+
+Emulates a SICK scanner speaking CoLa-A on TCP: accepts one client, answers
+'sEN LMDscandata 1' with 'sEA LMDscandata 1', then streams the scans of LOG's
+channel as 'sSN LMDscandata' telegrams in real time (ranges in whole mm), and
+closes the connection and exits at the end of the recording.
+The emulated device's clock starts at B us (default 4294000000, near the
+32-bit wrap) and runs D ppm fast; each telegram leaves up to J ms late
+(uniform, seeded), as network and scheduling delays would make it.
+  --port P        TCP port (default 2111)      --bind ADDR  (default 127.0.0.1)
+Exit status: 0 served the recording, 2 bad log or options, 1 internal error.
+)";
+
+using agvcal_process::g_stop_requested;
+using agvcal_process::WallMicros;
+
+std::vector<agvcal::laser_scan_t> ReadScans(const std::string& path, const std::string& channel) {
+  std::vector<agvcal::laser_scan_t> scans;
+  calib::LogReader reader(path);
+  calib::LogEvent e;
+  while (reader.Next(&e)) {
+    if (e.channel != channel) continue;
+    agvcal::laser_scan_t m;
+    if (!calib::Decode(e.data.data(), int(e.data.size()), &m))
+      throw calib::InputError(path, "event " + std::to_string(e.event_number), "not a laser_scan_t on " + channel);
+    scans.push_back(std::move(m));
+  }
+  if (scans.empty()) throw calib::InputError(path, "", "no " + channel + " messages");
+  return scans;
+}
+
+void SleepUntil(int64_t wall_us) {
+  while (!g_stop_requested) {
+    const int64_t left = wall_us - WallMicros();
+    if (left <= 0) return;
+    std::this_thread::sleep_for(std::chrono::microseconds(std::min<int64_t>(left, 100000)));
+  }
+}
+
+int Run(int argc, char** argv) {
+  using namespace agvcal_process;
+  const Args args = ParseArgs(argc, argv, 1,
+                              {"--port", "--bind", "--channel", "--jitter-ms", "--drift-ppm", "--boot-us", "--seed"}, {});
+  if (const auto status = CheckUsage(args, kUsage, 1)) return *status;
+  const double jitter_us = args.GetDouble("--jitter-ms", 0.0) * 1000.0;
+  const double drift = args.GetDouble("--drift-ppm", 0.0) * 1e-6;
+  const int64_t boot = int64_t(args.GetDouble("--boot-us", 4294000000.0));
+  const int port = int(args.GetDouble("--port", 2111));
+  if (jitter_us < 0 || port <= 0 || port > 65535)
+    throw calib::InputError("command line", "--jitter-ms/--port", "out of range");
+  const std::vector<agvcal::laser_scan_t> scans = ReadScans(args.positional[0], args.Get("--channel", "SCAN"));
+
+  const int server = socket(AF_INET, SOCK_STREAM, 0);
+  const int on = 1;
+  setsockopt(server, SOL_SOCKET, SO_REUSEADDR, &on, sizeof on);
+  sockaddr_in addr{};
+  addr.sin_family = AF_INET;
+  addr.sin_port = htons(uint16_t(port));
+  if (inet_pton(AF_INET, args.Get("--bind", "127.0.0.1").c_str(), &addr.sin_addr) != 1)
+    throw calib::InputError("command line", "--bind", "not an IPv4 address");
+  if (bind(server, reinterpret_cast<sockaddr*>(&addr), sizeof addr) != 0 || listen(server, 1) != 0)
+    throw calib::InputError("command line", "--port " + std::to_string(port), std::strerror(errno));
+  InstallStopHandlers();
+  std::cerr << "agvcal-sickemu: listening on port " << port << "\n";
+
+  int client = -1;
+  while (client < 0 && !g_stop_requested) {
+    pollfd p{server, POLLIN, 0};
+    if (poll(&p, 1, 100) > 0) client = accept(server, nullptr, nullptr);
+  }
+  close(server);
+  if (client < 0) return calib::kExitOk;
+  // Wait for the request to stream.
+  calib::StxEtxFramer framer;
+  std::string telegram;
+  bool streaming = false;
+  char buffer[4096];
+  while (!streaming && !g_stop_requested) {
+    pollfd p{client, POLLIN, 0};
+    if (poll(&p, 1, 100) <= 0) continue;
+    const ssize_t n = recv(client, buffer, sizeof buffer, 0);
+    if (n <= 0) {
+      close(client);
+      return calib::kExitOk;
+    }
+    framer.Append(buffer, std::size_t(n));
+    while (framer.Next(&telegram)) {
+      const bool start = telegram == "sEN LMDscandata 1";
+      SendAll(client, calib::FrameTelegram(start ? "sEA LMDscandata 1" : "sFA 1"));
+      streaming = streaming || start;
+    }
+  }
+
+  std::mt19937_64 rng(uint64_t(args.GetDouble("--seed", 1)));
+  std::uniform_real_distribution<double> late(0.0, jitter_us);
+  const int64_t first = scans.front().utime;
+  const int64_t wall_start = WallMicros() + 100000;
+  int64_t sent = 0;
+  for (std::size_t i = 0; i < scans.size() && !g_stop_requested; ++i) {
+    const agvcal::laser_scan_t& m = scans[i];
+    calib::SickScan s = calib::SickScanFromMessage(m, -90.0);
+    s.telegram_counter = int(i & 0xFFFF);
+    s.scan_counter = int(i & 0xFFFF);
+    // The scan ends (n - 1) beams after its start; the device sends it 1 ms later.
+    const double transmit_after_us = std::max(0, m.nranges - 1) * double(m.time_increment) * 1e6 + 1000.0;
+    auto device = [&](double since_first_us) {
+      return uint32_t(uint64_t(boot + std::llround(since_first_us * (1.0 + drift))) & 0xFFFFFFFFu);
+    };
+    s.time_since_startup_us = device(double(m.utime - first));
+    s.time_of_transmission_us = device(double(m.utime - first) + transmit_after_us);
+    SleepUntil(wall_start + (m.utime - first) + std::llround(transmit_after_us + late(rng)));
+    if (!SendAll(client, calib::FrameTelegram(calib::FormatLmdScandata(s)))) break;
+    ++sent;
+  }
+  close(client);
+  std::cerr << "agvcal-sickemu: sent " << sent << " scans\n";
+  return calib::kExitOk;
+}
+
+}  // namespace
+
+int main(int argc, char** argv) { return calib::RunMain("agvcal-sickemu", Run, argc, argv); }
