@@ -20,14 +20,16 @@ constexpr double kStillMargin_s = 0.1;
 
 double Deg(double rad) { return rad * 180.0 / M_PI; }
 
-// The integral of the gyro rate from the first sample, for any span.
+// The integral of the gyro rate from the first sample, for any span. A sample is
+// taken as the mean rate since the previous one (what an IMU's decimation filter
+// reports; the trapezoid rule would lag a rate step by half a sample period).
 class GyroIntegral {
  public:
   explicit GyroIntegral(const std::vector<ImuSample>& imu) : imu_(imu) {
     cumulative_.resize(imu.size(), 0.0);
     for (size_t i = 1; i < imu.size(); ++i) {
       const double dt = (imu[i].utime - imu[i - 1].utime) * 1e-6;
-      cumulative_[i] = cumulative_[i - 1] + 0.5 * (imu[i].rate + imu[i - 1].rate) * dt;
+      cumulative_[i] = cumulative_[i - 1] + imu[i].rate * dt;
     }
   }
   bool Covers(double t0, double t1) const {
@@ -52,11 +54,7 @@ class GyroIntegral {
   }
   double At(double t) const {
     const size_t i = Index(t);
-    const double s = Fraction(i, t);
-    // Exact for a rate linear between samples.
-    const double dt = (imu_[i + 1].utime - imu_[i].utime) * 1e-6 * s;
-    const double r0 = imu_[i].rate, r1 = imu_[i].rate + s * (imu_[i + 1].rate - imu_[i].rate);
-    return cumulative_[i] + 0.5 * (r0 + r1) * dt;
+    return cumulative_[i] + imu_[i + 1].rate * (imu_[i + 1].utime - imu_[i].utime) * 1e-6 * Fraction(i, t);
   }
   const std::vector<ImuSample>& imu_;
   std::vector<double> cumulative_;
@@ -313,7 +311,7 @@ ImuCalibrationResult CalibrateWithImu(const RobotDescription& robot, const Wheel
   };
 
   Eigen::VectorXd p(with_scale ? 5 : 4);
-  p << rL0, rR0, b0, bias0;
+  p[0] = rL0, p[1] = rR0, p[2] = b0, p[3] = bias0;
   if (with_scale) p[4] = s_held;
   double offset_us = 0.0;
   std::vector<ImuSpan> work = spans;
