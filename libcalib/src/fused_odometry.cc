@@ -6,7 +6,11 @@
 
 #include <Eigen/Dense>
 
+#include "agvcal/imu_t.hpp"
+#include "agvcal/wheel_state_t.hpp"
 #include "calib/errors.h"
+#include "calib/messages.h"
+#include "calib/recording.h"
 
 namespace calib {
 
@@ -149,6 +153,45 @@ void FusedOdometry::Step(const WheelSample& sample, bool with_gyro) {
   latest_.gyro_bias = imu_.gyro_bias + x_(1);
   out_.push_back(latest_);
   last_ = sample;
+}
+
+agvcal::pose2d_t FusedPoseMessage(const FusedPose& pose) {
+  agvcal::pose2d_t m{};
+  m.utime = pose.utime;
+  m.x = pose.pose.x;
+  m.y = pose.pose.y;
+  m.theta = WrapAngle(pose.pose.theta);
+  for (double& c : m.cov) c = 0.0;
+  m.cov[8] = pose.heading_std * pose.heading_std;
+  return m;
+}
+
+std::vector<FusedPose> FuseLog(const RobotDescription& robot, const std::string& log_path,
+                               const FusedOdometryOptions& options) {
+  FusedOdometry fused(robot, options);
+  const std::string imu_channel = robot.imu ? robot.imu->channel : kImuChannel;
+  std::vector<FusedPose> poses;
+  LogReader reader(log_path);
+  LogEvent event;
+  while (reader.Next(&event)) {
+    const int size = static_cast<int>(event.data.size());
+    const std::string origin = log_path + ": event " + std::to_string(event.event_number);
+    if (event.channel == kWheelsChannel) {
+      agvcal::wheel_state_t m;
+      if (!Decode(event.data.data(), size, &m)) throw InputError(origin, "WHEELS", "does not decode as wheel_state_t");
+      fused.AddWheels(WheelSampleFromMessage(m, robot, origin));
+    } else if (event.channel == imu_channel) {
+      agvcal::imu_t m;
+      if (!Decode(event.data.data(), size, &m)) throw InputError(origin, imu_channel, "does not decode as imu_t");
+      fused.AddImu(ImuSampleFromMessage(m, origin));
+    } else {
+      continue;
+    }
+    for (const FusedPose& p : fused.TakePoses()) poses.push_back(p);
+  }
+  fused.Finish();
+  for (const FusedPose& p : fused.TakePoses()) poses.push_back(p);
+  return poses;
 }
 
 }  // namespace calib

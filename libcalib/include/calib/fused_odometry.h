@@ -25,10 +25,12 @@
 
 #include <cstdint>
 #include <deque>
+#include <string>
 #include <vector>
 
 #include <Eigen/Core>
 
+#include "agvcal/pose2d_t.hpp"
 #include "calib/imu_calibration.h"
 #include "calib/robot.h"
 #include "calib/se2.h"
@@ -57,6 +59,16 @@ struct FusedPose {
 // mean rate since the previous sample; the span before the first sample counts
 // at the first sample's rate.
 double IntegrateGyro(const std::deque<ImuSample>& samples, double t0, double t1);
+
+// The pose2d_t of a fused pose (channel ODOM_FUSED): theta wrapped, the
+// heading variance in cov[8], the rest of cov zero (not estimated).
+agvcal::pose2d_t FusedPoseMessage(const FusedPose& pose);
+
+// Feeds a recording's WHEELS and IMU (robot file's channel) in log order, as the
+// live process receives them; the poses in order. Throws InputError for an
+// unreadable log or message.
+std::vector<FusedPose> FuseLog(const RobotDescription& robot, const std::string& log_path,
+                               const FusedOdometryOptions& options);
 
 class FusedOdometry {
  public:
