@@ -282,7 +282,12 @@ OdometryError HeldoutOdometry(const std::vector<Interval>& intervals, const Stat
 }  // namespace
 
 const char* MotionSourceName(MotionSource source) {
-  return source == MotionSource::kPose ? "pose" : "lidar2d";
+  switch (source) {
+    case MotionSource::kPose: return "pose";
+    case MotionSource::kImu: return "imu";
+    case MotionSource::kLidar2d: break;
+  }
+  return "lidar2d";
 }
 
 CalibrationResult Calibrate(const RobotDescription& robot, const WheelTrack& wheels,
@@ -547,6 +552,16 @@ CalibrationResult Calibrate(const RobotDescription& robot, const WheelTrack& whe
 RobotDescription Calibrated(const RobotDescription& robot, const CalibrationResult& result) {
   RobotDescription out = robot;
   for (const auto& [name, e] : result.params) out.params[name] = e.value;
+  if (result.imu) {
+    if (!out.imu) out.imu = ImuMount{};
+    out.imu->gyro_bias = result.imu->gyro_bias.value;
+    out.imu->gyro_scale = result.imu->gyro_scale.value;
+    if (std::isfinite(result.imu->yaw.std)) out.imu->yaw = result.imu->yaw.value;
+    out.imu->time_offset = result.imu->time_offset.value;
+    out.imu->gyro_noise = result.imu->gyro_noise;
+    out.imu->wheel_noise = result.imu->wheel_noise;
+    return out;
+  }
   std::optional<Mount2d>& mount = result.source == MotionSource::kPose ? out.pose : out.lidar2d;
   if (!mount) mount = Mount2d{result.source == MotionSource::kPose ? "POSE" : "SCAN", 0, 0, 0};
   mount->x = result.mount_x.value;

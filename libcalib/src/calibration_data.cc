@@ -26,6 +26,10 @@ void CalibrationData::AddPose(const agvcal::pose2d_t& message) {
 
 void CalibrationData::AddMotion(const SensorMotion& motion) { motions_.push_back(motion); }
 
+void CalibrationData::AddImu(const agvcal::imu_t& message, const std::string& origin) {
+  imu_.push_back(ImuSampleFromMessage(message, origin));
+}
+
 SensorMotion MotionBetweenPoses(const agvcal::pose2d_t& from, const agvcal::pose2d_t& to) {
   SensorMotion m;
   m.utime_start = from.utime;

@@ -542,7 +542,23 @@ void AddFigure8(const Limits& lim, std::vector<TrajectorySegment>* out, double r
   }
 }
 
-Trajectory MakeDifferential(const Limits& lim, const std::string& name) {
+// The IMU calibration (docs/imu.md): a straight run of the distance the user will measure,
+// turns in place of several whole turns both ways, back along the straight; long pauses
+// at rest show the gyro's bias.
+void AddImuCalibration(const RobotDescription& robot, std::vector<TrajectorySegment>* out) {
+  const Limits& lim = robot.limits;
+  const double distance = robot.imu && robot.imu->distance ? *robot.imu->distance : 3.0;
+  const double still = 10.0;
+  out->push_back(Seg(Fmt("straight, forward %.2f m (measure it)", distance), lim.max_speed, 0.0, {},
+                     distance, 0.0, still));
+  out->push_back(Seg("turn in place +2 turns", 0.0, lim.max_omega, {}, 0.0, 4 * M_PI, still));
+  out->push_back(Seg(Fmt("straight, reverse %.2f m", distance), -lim.max_speed, 0.0, {}, distance,
+                     0.0, still));
+  out->push_back(Seg("turn in place -2 turns", 0.0, -lim.max_omega, {}, 0.0, 4 * M_PI, still));
+}
+
+Trajectory MakeDifferential(const RobotDescription& robot, const std::string& name) {
+  const Limits& lim = robot.limits;
   Trajectory t;
   t.name = name;
   auto& s = t.segments;
@@ -567,6 +583,8 @@ Trajectory MakeDifferential(const Limits& lim, const std::string& name) {
   } else if (name == "straight") {
     AddStraightDiff(&s, lim.max_speed, 3.0);
     AddStraightDiff(&s, 0.5 * lim.max_speed, 3.0);
+  } else if (name == "imu") {
+    AddImuCalibration(robot, &s);
   }
   return t;
 }
@@ -697,7 +715,7 @@ Trajectory MakeDualSteer(const RobotDescription& robot, const std::string& name)
 std::vector<std::string> TrajectoryNames(DriveType type) {
   switch (type) {
     case DriveType::kDifferential:
-      return {"default", "umbmark", "turns", "figure8", "demo", "straight"};
+      return {"default", "umbmark", "turns", "figure8", "demo", "straight", "imu"};
     case DriveType::kTricycle:
       return {"default", "demo", "straight"};
     case DriveType::kDualSteer:
@@ -716,7 +734,7 @@ Trajectory MakeTrajectory(const RobotDescription& robot, const std::string& name
                          " drive; known: " + known);
   }
   switch (robot.drive) {
-    case DriveType::kDifferential: return MakeDifferential(robot.limits, name);
+    case DriveType::kDifferential: return MakeDifferential(robot, name);
     case DriveType::kTricycle: return MakeTricycle(robot.limits, name);
     case DriveType::kDualSteer: return MakeDualSteer(robot, name);
   }

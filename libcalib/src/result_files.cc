@@ -33,14 +33,25 @@ std::string CalibrationResultJson(const CalibrationResult& r) {
   j["drive"] = DriveTypeName(r.drive);
   j["params"] = nlohmann::json::object();
   for (const std::string& name : r.param_names) j["params"][name] = EstimateJson(r.params.at(name), true);
-  nlohmann::json mount = {{"x", EstimateJson(r.mount_x, true)},
-                          {"y", EstimateJson(r.mount_y, true)},
-                          {"yaw", EstimateJson(r.mount_yaw, true)}};
-  if (r.source == MotionSource::kLidar2d) {
-    mount["time_offset"] = r.time_offset ? EstimateJson(*r.time_offset, false)
-                                         : nlohmann::json{{"value", 0.0}, {"std", 0.0}};
+  if (r.imu) {
+    j["imu"] = {{"gyro_bias", EstimateJson(r.imu->gyro_bias, true)},
+                {"gyro_scale", EstimateJson(r.imu->gyro_scale, true)},
+                {"gyro_scale_estimated", r.imu->gyro_scale_estimated},
+                {"yaw", EstimateJson(r.imu->yaw, true)},
+                {"time_offset", EstimateJson(r.imu->time_offset, true)},
+                {"gyro_noise", Number(r.imu->gyro_noise)},
+                {"wheel_noise", Number(r.imu->wheel_noise)},
+                {"distance", Number(r.imu->distance_m)}};
+  } else {
+    nlohmann::json mount = {{"x", EstimateJson(r.mount_x, true)},
+                            {"y", EstimateJson(r.mount_y, true)},
+                            {"yaw", EstimateJson(r.mount_yaw, true)}};
+    if (r.source == MotionSource::kLidar2d) {
+      mount["time_offset"] = r.time_offset ? EstimateJson(*r.time_offset, false)
+                                           : nlohmann::json{{"value", 0.0}, {"std", 0.0}};
+    }
+    j[MotionSourceName(r.source)] = mount;
   }
-  j[MotionSourceName(r.source)] = mount;
   j["residual"] = {{"intervals", r.residual.intervals},
                    {"outliers", r.residual.outliers},
                    {"degenerate", r.residual.degenerate},
@@ -70,14 +81,30 @@ std::string CalibratedRobotYaml(const RobotDescription& robot, const Calibration
     root["params"][name] = e.value;
     std_node["params"][name] = e.std;
   }
-  const std::string mount = MotionSourceName(r.source);
-  if (!root[mount]) root[mount]["channel"] = r.source == MotionSource::kPose ? "POSE" : "SCAN";
-  root[mount]["x"] = r.mount_x.value;
-  root[mount]["y"] = r.mount_y.value;
-  root[mount]["yaw"] = r.mount_yaw.value;
-  std_node[mount]["x"] = r.mount_x.std;
-  std_node[mount]["y"] = r.mount_y.std;
-  std_node[mount]["yaw"] = r.mount_yaw.std;
+  if (r.imu) {
+    const RobotDescription calibrated = Calibrated(robot, r);
+    const ImuMount& imu = *calibrated.imu;
+    if (!root["imu"]) root["imu"]["channel"] = imu.channel;
+    root["imu"]["yaw"] = imu.yaw;
+    root["imu"]["gyro_bias"] = imu.gyro_bias;
+    root["imu"]["gyro_scale"] = imu.gyro_scale;
+    root["imu"]["time_offset"] = imu.time_offset;
+    root["imu"]["gyro_noise"] = imu.gyro_noise;
+    root["imu"]["wheel_noise"] = imu.wheel_noise;
+    std_node["imu"]["yaw"] = r.imu->yaw.std;
+    std_node["imu"]["gyro_bias"] = r.imu->gyro_bias.std;
+    std_node["imu"]["gyro_scale"] = r.imu->gyro_scale.std;
+    std_node["imu"]["time_offset"] = r.imu->time_offset.std;
+  } else {
+    const std::string mount = MotionSourceName(r.source);
+    if (!root[mount]) root[mount]["channel"] = r.source == MotionSource::kPose ? "POSE" : "SCAN";
+    root[mount]["x"] = r.mount_x.value;
+    root[mount]["y"] = r.mount_y.value;
+    root[mount]["yaw"] = r.mount_yaw.value;
+    std_node[mount]["x"] = r.mount_x.std;
+    std_node[mount]["y"] = r.mount_y.std;
+    std_node[mount]["yaw"] = r.mount_yaw.std;
+  }
   root["std"] = std_node;
   root["source"] = log_path;
   YAML::Emitter out;

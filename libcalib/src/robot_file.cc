@@ -171,10 +171,17 @@ Mount3d ReadMount3d(const Reporter& reporter, const Field& field) {
 }
 
 ImuMount ReadImu(const Reporter& reporter, const Field& field) {
-  const CheckedMap map(reporter, field, {"channel", "yaw"});
+  const CheckedMap map(reporter, field, {"channel", "yaw", "gyro_bias", "gyro_scale", "time_offset",
+                                        "gyro_noise", "wheel_noise", "distance"});
   ImuMount mount;
   mount.channel = ChannelOr(reporter, map, "IMU");
   mount.yaw = NumberOr(reporter, map, "yaw", 0.0);
+  mount.gyro_bias = NumberOr(reporter, map, "gyro_bias", mount.gyro_bias);
+  if (const auto f = map.Find("gyro_scale")) mount.gyro_scale = ReadPositive(reporter, *f);
+  mount.time_offset = NumberOr(reporter, map, "time_offset", mount.time_offset);
+  if (const auto f = map.Find("gyro_noise")) mount.gyro_noise = ReadPositive(reporter, *f);
+  if (const auto f = map.Find("wheel_noise")) mount.wheel_noise = ReadPositive(reporter, *f);
+  if (const auto f = map.Find("distance")) mount.distance = ReadPositive(reporter, *f);
   return mount;
 }
 

@@ -125,13 +125,17 @@ void ReadSensors(const Reporter& r, const Field& field, SimConfig* cfg) {
   }
   if (const auto f = top.Find("imu")) {
     const CheckedMap m(r, *f, {"rate", "gyro_noise_density", "gyro_bias", "accel_noise_density",
-                               "accel_bias"});
+                               "accel_bias", "gyro_scale", "time_offset"});
     ImuSensorConfig& i = cfg->imu;
     i.rate_hz = RateOr(r, m, i.rate_hz);
     i.gyro_noise_density = NonNegativeOr(r, m, "gyro_noise_density", i.gyro_noise_density);
     i.gyro_bias = NumberOr(r, m, "gyro_bias", i.gyro_bias);
     i.accel_noise_density = NonNegativeOr(r, m, "accel_noise_density", i.accel_noise_density);
     i.accel_bias = NumberOr(r, m, "accel_bias", i.accel_bias);
+    if (const auto v = m.Find("gyro_scale")) i.gyro_scale = ReadPositive(r, *v);
+    i.time_offset_s = NumberOr(r, m, "time_offset", i.time_offset_s);
+    if (std::abs(i.time_offset_s) > 0.1)
+      r.Fail(*m.Find("time_offset"), "an IMU time offset must be within 0.1 s");
   }
   if (const auto f = top.Find("lidar3d")) {
     const CheckedMap m(r, *f, {"rate", "rings", "elevation_min", "elevation_max",

@@ -9,7 +9,9 @@ namespace calib {
 OfflineRunSummary RunOffline(const SimConfig& config, const OfflineRunOptions& options,
                              MessageSink* sink) {
   Simulator sim(config);
-  Commander commander(config.robot, MakeTrajectory(config.robot, options.trajectory));
+  Commander commander(config.robot, options.custom_trajectory
+                                        ? *options.custom_trajectory
+                                        : MakeTrajectory(config.robot, options.trajectory));
   const int64_t period = std::llround(1e6 / options.command_rate_hz);
   const int64_t start = sim.utime();
   const int64_t cap = start + std::llround(options.max_duration_s * 1e6);

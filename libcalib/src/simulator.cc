@@ -264,7 +264,7 @@ void Simulator::AdvanceTo(int64_t until, MessageSink* sink) {
 
     if (s.imu_period && s.next_imu <= utime_) {
       agvcal::imu_t msg{};
-      msg.utime = utime_;
+      msg.utime = utime_ + std::llround(cfg.imu.time_offset_s * 1e6);
       const double yaw = pose_.theta + cfg.true_imu.yaw;
       const auto& oldest = s.velocity_history.front();
       Eigen::Vector2d accel_world = Eigen::Vector2d::Zero();
@@ -275,7 +275,7 @@ void Simulator::AdvanceTo(int64_t until, MessageSink* sink) {
       const double accel_sigma = cfg.imu.accel_noise_density * std::sqrt(cfg.imu.rate_hz);
       msg.angular_velocity[0] = gyro_sigma * s.normal(s.rng_imu);
       msg.angular_velocity[1] = gyro_sigma * s.normal(s.rng_imu);
-      msg.angular_velocity[2] = s.omega_body + cfg.imu.gyro_bias + gyro_sigma * s.normal(s.rng_imu);
+      msg.angular_velocity[2] = cfg.imu.gyro_scale * s.omega_body + cfg.imu.gyro_bias + gyro_sigma * s.normal(s.rng_imu);
       msg.linear_acceleration[0] = c * accel_world.x() + sn * accel_world.y() + cfg.imu.accel_bias +
                                    accel_sigma * s.normal(s.rng_imu);
       msg.linear_acceleration[1] = -sn * accel_world.x() + c * accel_world.y() +

@@ -30,14 +30,22 @@ MotionSource ChooseMotionSource(const RobotDescription& robot, const std::string
     throw InputError(log_path, "channel " + std::string(kWheelsChannel), "not in the recording");
   const std::string scan = robot.lidar2d ? robot.lidar2d->channel : kScanChannel;
   const std::string pose = robot.pose ? robot.pose->channel : kPoseChannel;
+  const std::string imu = robot.imu ? robot.imu->channel : kImuChannel;
+  if (requested == MotionSource::kImu ||
+      (!requested && !has(scan) && !has(pose) && robot.imu && has(imu))) {
+    if (!robot.imu) throw InputError(robot.source_file, "imu", "no IMU in the robot file (needed for --source imu)");
+    if (!has(imu)) throw InputError(log_path, "channel " + imu, "not in the recording (needed for the IMU)");
+    return MotionSource::kImu;
+  }
   if (requested == MotionSource::kLidar2d || (!requested && robot.lidar2d && has(scan))) {
     if (!has(scan))
       throw InputError(log_path, "channel " + scan, "not in the recording (needed for the 2D lidar)");
     return MotionSource::kLidar2d;
   }
   if (!has(pose)) {
-    throw InputError(log_path, "channels " + scan + " / " + pose,
-                     "neither scans of the robot's 2D lidar nor external poses in the recording");
+    throw InputError(log_path, "channels " + scan + " / " + pose + " / " + imu,
+                     "neither scans of the robot's 2D lidar, external poses nor the robot's IMU in "
+                     "the recording");
   }
   return MotionSource::kPose;
 }
@@ -48,6 +56,7 @@ CalibrationData ReadCalibrationData(const RobotDescription& robot, const std::st
   CalibrationData data(robot);
   const std::string pose_channel = robot.pose ? robot.pose->channel : kPoseChannel;
   const std::string scan_channel = robot.lidar2d ? robot.lidar2d->channel : kScanChannel;
+  const std::string imu_channel = robot.imu ? robot.imu->channel : kImuChannel;
   std::optional<ScanMatchPipeline> matcher;
   if (source == MotionSource::kLidar2d) matcher.emplace(robot);
   auto take_matches = [&]() {
@@ -75,6 +84,11 @@ CalibrationData ReadCalibrationData(const RobotDescription& robot, const std::st
         throw InputError(log_path, EventPlace(event), "does not decode as laser_scan_t");
       matcher->AddScan(LaserScanFromMessage(m, log_path + ": " + EventPlace(event)));
       take_matches();
+    } else if (source == MotionSource::kImu && event.channel == imu_channel) {
+      agvcal::imu_t m;
+      if (!Decode(event.data.data(), size, &m))
+        throw InputError(log_path, EventPlace(event), "does not decode as imu_t");
+      data.AddImu(m, log_path + ": " + EventPlace(event));
     } else if (source == MotionSource::kPose && event.channel == pose_channel) {
       agvcal::pose2d_t m;
       if (!Decode(event.data.data(), size, &m))
@@ -105,9 +119,13 @@ CalibrationResult SolveLog(const RobotDescription& robot, const std::string& log
   const MotionSource source = ChooseMotionSource(robot, log_path, options.source);
   const CalibrationData data = ReadCalibrationData(robot, log_path, source, options.progress);
   if (options.progress) {
+    const size_t count = source == MotionSource::kImu ? data.imu().size() : data.motions().size();
     options.progress(std::to_string(data.wheels().size()) + " wheel states, " +
-                     std::to_string(data.motions().size()) + " " + MotionSourceName(source) +
-                     " motions; calibrating");
+                     std::to_string(count) + " " + MotionSourceName(source) +
+                     (source == MotionSource::kImu ? " samples" : " motions") + "; calibrating");
+  }
+  if (source == MotionSource::kImu) {
+    return ToCalibrationResult(robot, CalibrateWithImu(robot, data.wheels(), data.imu(), options.imu, log_path));
   }
   return Calibrate(robot, data.wheels(), data.motions(), source, options.calibration, log_path);
 }

@@ -1,3 +1,4 @@
+#include <cmath>
 #include <cstdio>
 #include <iostream>
 
@@ -11,15 +12,24 @@ namespace agvcal_cli {
 
 namespace {
 const char* kUsage = R"(usage: agvcal solve ROBOT.yaml LOG [--out RESULT.json] [--write-robot CALIBRATED.yaml]
-                    [--source lidar2d|pose] [--time-offset] [--fit-fraction F] [--quiet]
+                    [--source lidar2d|pose|imu] [--time-offset] [--fit-fraction F] [--quiet]
+                    [--distance METRES] [--distance-std METRES] [--turn-angle DEG]
 
 Calibrates the drive parameters of ROBOT.yaml and the mount of its 2D lidar
 (scans scan-matched) or of its external pose source (POSE) from a recording
 with WHEELS, jointly, by maximum likelihood, with one-sigma uncertainties.
-Prints a summary; RESULT.json follows spec/cli.md.
+A differential drive with an IMU and no lidar (source imu, docs/imu.md) is
+calibrated with the gyro as the rotation reference and a measured distance as
+the scale, with the gyro's bias, scale (given a measured turn), mount yaw and
+time offset. Prints a summary; RESULT.json follows spec/cli.md.
   --out RESULT.json          write the result (atomically)
   --write-robot FILE         write ROBOT.yaml back with the calibrated values, std: and source:
-  --source lidar2d|pose      which sensor measures the motion (default: the lidar if scanned)
+  --source lidar2d|pose|imu  which sensor measures the motion (default: the lidar if scanned,
+                             else external poses, else the IMU)
+  --distance METRES          imu: measured length of the first straight run (default imu.distance)
+  --distance-std METRES      imu: its one sigma (default 0.001)
+  --turn-angle DEG           imu: measured angle of the first turn in place; calibrates the
+                             gyro scale (without it the scale stays at imu.gyro_scale)
   --time-offset              also estimate the lidar-to-wheel time offset
   --fit-fraction F           fit on the first fraction F of the recording, and compare the
                              calibrated with the nominal model's odometry on the rest
@@ -35,7 +45,9 @@ void PrintEstimate(const std::string& name, const calib::Estimate& e) {
 
 int Solve(int argc, char** argv) {
   const auto args = agvcal_process::ParseArgs(
-      argc, argv, 2, {"--out", "--write-robot", "--source", "--fit-fraction"}, {"--time-offset", "--quiet"});
+      argc, argv, 2,
+      {"--out", "--write-robot", "--source", "--fit-fraction", "--distance", "--distance-std", "--turn-angle"},
+      {"--time-offset", "--quiet"});
   if (const auto status = agvcal_process::CheckUsage(args, kUsage, 2)) return *status;
   const calib::RobotDescription robot = calib::LoadRobotFile(args.positional[0]);
   const std::string log_path = args.positional[1];
@@ -51,8 +63,17 @@ int Solve(int argc, char** argv) {
     const std::string source = args.Get("--source", "");
     if (source == "lidar2d") options.source = calib::MotionSource::kLidar2d;
     else if (source == "pose") options.source = calib::MotionSource::kPose;
-    else throw calib::InputError("command line", "--source", "expected lidar2d or pose, got '" + source + "'");
+    else if (source == "imu") options.source = calib::MotionSource::kImu;
+    else throw calib::InputError("command line", "--source", "expected lidar2d, pose or imu, got '" + source + "'");
   }
+  auto positive = [&](const char* key) {
+    const double v = args.GetDouble(key, 0.0);
+    if (!(v > 0.0 && std::isfinite(v))) throw calib::InputError("command line", key, "expected a positive number");
+    return v;
+  };
+  if (args.Has("--distance")) options.imu.distance_m = positive("--distance");
+  if (args.Has("--distance-std")) options.imu.distance_std_m = positive("--distance-std");
+  if (args.Has("--turn-angle")) options.imu.turn_angle_rad = positive("--turn-angle") * M_PI / 180.0;
   if (!args.Has("--quiet")) options.progress = [](const std::string& line) { std::cerr << line << "\n"; };
 
   const calib::CalibrationResult result = calib::SolveLog(robot, log_path, options);
@@ -61,10 +82,20 @@ int Solve(int argc, char** argv) {
               calib::DriveTypeName(result.drive), result.residual.intervals, result.residual.outliers,
               result.residual.rms_x * 1e3, result.residual.rms_y * 1e3, result.residual.rms_yaw * 180 / M_PI);
   for (const std::string& name : result.param_names) PrintEstimate(name, result.params.at(name));
-  const std::string mount = calib::MotionSourceName(result.source);
-  PrintEstimate(mount + ".x", result.mount_x);
-  PrintEstimate(mount + ".y", result.mount_y);
-  PrintEstimate(mount + ".yaw", result.mount_yaw);
+  if (result.imu) {
+    PrintEstimate("imu.gyro_bias", result.imu->gyro_bias);
+    PrintEstimate(result.imu->gyro_scale_estimated ? "imu.gyro_scale" : "imu.gyro_scale(held)",
+                  result.imu->gyro_scale);
+    PrintEstimate("imu.yaw", result.imu->yaw);
+    PrintEstimate("imu.time_offset", result.imu->time_offset);
+    std::printf("  gyro noise %.3g rad/s/sqrt(Hz), wheel heading noise %.3g rad/sqrt(m), distance %.4f m\n",
+                result.imu->gyro_noise, result.imu->wheel_noise, result.imu->distance_m);
+  } else {
+    const std::string mount = calib::MotionSourceName(result.source);
+    PrintEstimate(mount + ".x", result.mount_x);
+    PrintEstimate(mount + ".y", result.mount_y);
+    PrintEstimate(mount + ".yaw", result.mount_yaw);
+  }
   if (result.time_offset) PrintEstimate("time_offset", *result.time_offset);
   if (!result.weak.empty()) {
     std::printf("  weakly determined:");

@@ -19,6 +19,7 @@
 #include "agvcal/pose2d_t.hpp"
 #include "agvcal/wheel_state_t.hpp"
 #include "calib/errors.h"
+#include "calib/fused_odometry.h"
 #include "calib/kinematics.h"
 #include "calib/log_summary.h"
 #include "calib/messages.h"
@@ -192,6 +193,25 @@ int ScanMatch(const std::string& log, const std::string& robot_file, const std::
   return failures ? 1 : 0;
 }
 
+// The live fusion process against FuseLog on the recording replayed into it.
+int Fusion(const std::string& log, const std::string& robot_file, const std::string& live) {
+  const calib::RobotDescription robot = calib::LoadRobotFile(robot_file);
+  const std::vector<calib::FusedPose> offline = calib::FuseLog(robot, log, calib::FusedOdometryOptions{});
+  std::vector<std::vector<uint8_t>> live_messages;
+  calib::LogReader live_reader(live);
+  calib::LogEvent e;
+  while (live_reader.Next(&e))
+    if (e.channel == calib::kOdomFusedChannel) live_messages.push_back(e.data);
+  Check(offline.size() > 1000, "offline: " + std::to_string(offline.size()) + " fused poses");
+  Check(live_messages.size() == offline.size(), "live: " + std::to_string(live_messages.size()) +
+                                                    " ODOM_FUSED messages, offline " + std::to_string(offline.size()));
+  size_t same = 0;
+  for (size_t i = 0; i < std::min(offline.size(), live_messages.size()); ++i)
+    same += calib::Encode(calib::FusedPoseMessage(offline[i])) == live_messages[i];
+  Check(same == offline.size(), std::to_string(same) + " identical to the offline result");
+  return failures ? 1 : 0;
+}
+
 int Run(int argc, char** argv) {
   const std::string mode = argc > 1 ? argv[1] : "";
   if (mode == "rates" && argc >= 4) return Rates(argc, argv);
@@ -199,8 +219,9 @@ int Run(int argc, char** argv) {
   if (mode == "same" && argc == 4) return Same(argv[2], argv[3]);
   if (mode == "stale" && argc == 3) return Stale(argv[2]);
   if (mode == "scanmatch" && argc == 5) return ScanMatch(argv[2], argv[3], argv[4]);
+  if (mode == "fusion" && argc == 5) return Fusion(argv[2], argv[3], argv[4]);
   std::cerr << "usage: e2e_log_check rates LOG CHANNEL=HZ... | tracking LOG ROBOT.yaml | same A B |"
-               " stale LOG | scanmatch LOG ROBOT.yaml LIVE\n";
+               " stale LOG | scanmatch LOG ROBOT.yaml LIVE | fusion LOG ROBOT.yaml LIVE\n";
   return 2;
 }
 

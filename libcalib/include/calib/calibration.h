@@ -31,8 +31,9 @@
 
 namespace calib {
 
-// Where the sensor motions come from; names the mount in results ("lidar2d", "pose").
-enum class MotionSource { kLidar2d, kPose };
+// Where the motion reference comes from; names the mount in results ("lidar2d",
+// "pose", "imu"). kImu: the gyro and a measured distance (imu_calibration.h).
+enum class MotionSource { kLidar2d, kPose, kImu };
 const char* MotionSourceName(MotionSource source);
 
 struct CalibrationOptions {
@@ -85,6 +86,16 @@ struct HeldoutComparison {
   OdometryError calibrated;  // the calibration's
 };
 
+// What the IMU-referenced calibration adds (imu_calibration.h): the gyro's
+// model and mount, and the noise the fused odometry takes from it.
+struct ImuEstimates {
+  Estimate gyro_bias, gyro_scale, yaw, time_offset;  // rad/s, 1, rad, s
+  bool gyro_scale_estimated = false;  // false: held at the robot file's value (std 0)
+  double gyro_noise = 0.0;            // rad/s/sqrt(Hz)
+  double wheel_noise = 0.0;           // rad/sqrt(m)
+  double distance_m = 0.0;            // the measured distance used as the scale
+};
+
 struct CalibrationResult {
   DriveType drive = DriveType::kDifferential;
   MotionSource source = MotionSource::kLidar2d;
@@ -92,6 +103,7 @@ struct CalibrationResult {
   std::map<std::string, Estimate> params;
   Estimate mount_x, mount_y, mount_yaw;
   std::optional<Estimate> time_offset;  // when estimated
+  std::optional<ImuEstimates> imu;      // source kImu (no mount_x/y/yaw then)
   std::map<std::string, double> closed_form;  // first estimate: params and mount_x/y/yaw
   std::string closed_form_note;               // why the closed form was not used, if so
   ResidualSummary residual;

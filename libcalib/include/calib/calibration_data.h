@@ -9,9 +9,11 @@
 #include <string>
 #include <vector>
 
+#include "agvcal/imu_t.hpp"
 #include "agvcal/pose2d_t.hpp"
 #include "agvcal/wheel_state_t.hpp"
 #include "calib/calibration.h"
+#include "calib/imu_calibration.h"
 #include "calib/robot.h"
 #include "calib/sensor_motion.h"
 #include "calib/wheel_track.h"
@@ -29,9 +31,13 @@ class CalibrationData {
   void AddPose(const agvcal::pose2d_t& message);
   // A scan-matched (or otherwise measured) sensor motion.
   void AddMotion(const SensorMotion& motion);
+  // An IMU sample (the IMU-referenced calibration); throws InputError (naming
+  // `origin`) for a non-finite reading.
+  void AddImu(const agvcal::imu_t& message, const std::string& origin);
 
   const WheelTrack& wheels() const { return wheels_; }
   const std::vector<SensorMotion>& motions() const { return motions_; }
+  const std::vector<ImuSample>& imu() const { return imu_; }
   int64_t dropped_wheels() const { return dropped_wheels_; }
   int64_t dropped_poses() const { return dropped_poses_; }
 
@@ -39,6 +45,7 @@ class CalibrationData {
   const RobotDescription& robot_;
   WheelTrack wheels_;
   std::vector<SensorMotion> motions_;
+  std::vector<ImuSample> imu_;
   std::optional<agvcal::pose2d_t> last_pose_;
   int64_t dropped_wheels_ = 0, dropped_poses_ = 0;
 };

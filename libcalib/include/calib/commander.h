@@ -15,7 +15,9 @@
 //   differential: "default" (all of the below plus straight runs, about
 //     3.3 min at the bundled robot's limits), "umbmark" (bidirectional
 //     square, 2.5 m sides, CCW and CW), "turns" (turns in place both ways at
-//     two rates), "figure8" (figure-eights both ways, 1.2 m loops).
+//     two rates), "figure8" (figure-eights both ways, 1.2 m loops), "imu" (the
+//     lidar-less calibration of docs/imu.md: a straight run of imu.distance, default
+//     3 m, two turns in place each way, the straight back, 10 s at rest after each).
 //   tricycle: "default" (about 3.2 min): arcs at true steering angles of
 //     +-0.2, +-0.4, +-0.7, +-1.0 rad (scaled down when max_steer is smaller),
 //     each driven 3 m forward then back along the same arc in reverse, and

@@ -32,6 +32,8 @@ inline constexpr const char* kCalibEstimateChannel = "CALIB_ESTIMATE";
 inline constexpr const char* kCalibResidualsChannel = "CALIB_RESIDUALS";
 inline constexpr const char* kScanMatchChannel = "SCAN_MATCH";
 inline constexpr const char* kGroundEstimateChannel = "GROUND_ESTIMATE";
+// Wheel odometry fused with the gyro (agvcal-fusion), pose2d_t.
+inline constexpr const char* kOdomFusedChannel = "ODOM_FUSED";
 // Default channel of a turret-mounted 3D lidar's angle (robot file lidar3d.rotation.channel).
 inline constexpr const char* kMountAngleChannel = "LIDAR3D_ANGLE";
 

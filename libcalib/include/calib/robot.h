@@ -63,9 +63,20 @@ struct Mount3d {
   std::optional<MountRotation> rotation;
 };
 
+// An IMU (robot file imu:). `yaw` is the sensor's mount yaw in the robot frame
+// (spec/robot.md); the other keys are optional and written by `agvcal solve
+// --source imu` (docs/imu.md): the gyro model measured_rate = gyro_scale *
+// true_rate + gyro_bias, a gyro sample stamped t taken at wheel-clock time
+// t - time_offset, and the noise the fused odometry uses.
 struct ImuMount {
   std::string channel = "IMU";
   double yaw = 0.0;
+  double gyro_bias = 0.0;           // rad/s about z
+  double gyro_scale = 1.0;
+  double time_offset = 0.0;         // s
+  double gyro_noise = 8.7e-5;       // rad/s/sqrt(Hz), white noise density of the z rate
+  double wheel_noise = 1e-3;        // rad/sqrt(m): wheel heading error growth per metre of wheel travel
+  std::optional<double> distance;   // m: measured length of a calibration run's first straight
 };
 
 // Motion limits the commander must respect.

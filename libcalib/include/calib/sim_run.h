@@ -6,6 +6,7 @@
 
 #include <cstdint>
 #include <functional>
+#include <optional>
 #include <string>
 
 #include "calib/commander.h"
@@ -16,6 +17,7 @@ namespace calib {
 
 struct OfflineRunOptions {
   std::string trajectory = "default";
+  std::optional<Trajectory> custom_trajectory;  // used instead of the named one when set
   double command_rate_hz = 20.0;
   double tail_s = 1.0;           // standstill recorded after the final stop
   double max_duration_s = 3600;  // safety cap on simulated time

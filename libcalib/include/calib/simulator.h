@@ -28,7 +28,8 @@
 //     lidar2d: {rate: 20, beams: 720, fov: 6.283185, range_min: 0.05, range_max: 30,
 //               range_noise: 0.01, dropout: 0.0}
 //     imu: {rate: 200, gyro_noise_density: 8.7e-5, gyro_bias: 0.0017, accel_noise_density: 0.002,
-//           accel_bias: 0.0}
+//           accel_bias: 0.0, gyro_scale: 1.0, time_offset: 0.0}
+//       # gyro z = gyro_scale * true rate + bias + noise; a sample stamped t is the rate at t - time_offset
 //     lidar3d: {rate: 0, rings: 16, elevation_min: -0.2618, elevation_max: 0.2618,
 //               points_per_ring: 1800, range_max: 100, range_noise: 0.02,
 //               body: {min: [x, y, z], max: [x, y, z]},     # robot body box, robot frame
@@ -106,6 +107,8 @@ struct ImuSensorConfig {
   double gyro_bias = 0.0017;           // rad/s on z (0.1 deg/s)
   double accel_noise_density = 0.002;  // m/s^2/sqrt(Hz)
   double accel_bias = 0.0;             // m/s^2 on x and y
+  double gyro_scale = 1.0;             // measured / true rate about z
+  double time_offset_s = 0.0;          // a sample stamped t measures the motion at t - time_offset_s
 };
 
 struct Lidar3dSensorConfig {

@@ -9,14 +9,17 @@
 
 #include "calib/calibration.h"
 #include "calib/calibration_data.h"
+#include "calib/imu_calibration.h"
 #include "calib/robot.h"
 
 namespace calib {
 
 struct SolveLogOptions {
   CalibrationOptions calibration;
+  ImuCalibrationOptions imu;  // source kImu
   // Which sensor measures the motion; by default the robot file's 2D lidar when
-  // the log has its scans, else the external pose source.
+  // the log has its scans, else the external pose source, else the IMU (with a
+  // measured distance: imu_calibration.h).
   std::optional<MotionSource> source;
   std::function<void(const std::string&)> progress;  // occasional one-line updates
 };

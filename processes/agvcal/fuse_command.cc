@@ -1,0 +1,51 @@
+#include <cmath>
+#include <cstdio>
+#include <sstream>
+
+#include "calib/atomic_file.h"
+#include "calib/errors.h"
+#include "calib/fused_odometry.h"
+#include "commands.h"
+#include "common/process_util.h"
+
+namespace agvcal_cli {
+
+namespace {
+const char* kUsage = R"(usage: agvcal fuse ROBOT.yaml LOG [--out POSES.csv] [--policy filter|average]
+
+Wheel odometry fused with the gyro (the code of agvcal-fusion, on a recording;
+the same numbers as a live replay). ROBOT.yaml: calibrated by `agvcal solve
+--source imu`. Prints the final pose; --out writes one line per wheel state:
+utime,x,y,theta,heading_std,gyro_bias (theta unwrapped, rad).
+  --policy filter|average  short motions: Kalman filter (default) or the mean of
+                           wheel and gyro below one wheel circumference (docs/imu.md)
+)";
+}  // namespace
+
+int Fuse(int argc, char** argv) {
+  const auto args = agvcal_process::ParseArgs(argc, argv, 2, {"--out", "--policy"}, {});
+  if (const auto status = agvcal_process::CheckUsage(args, kUsage, 2)) return *status;
+  const calib::RobotDescription robot = calib::LoadRobotFile(args.positional[0]);
+  calib::FusedOdometryOptions options;
+  const std::string policy = args.Get("--policy", "filter");
+  if (policy == "average") options.policy = calib::FusionPolicy::kAverageShort;
+  else if (policy != "filter") throw calib::InputError("command line", "--policy", "expected filter or average");
+  const std::vector<calib::FusedPose> poses = calib::FuseLog(robot, args.positional[1], options);
+  if (poses.empty()) throw calib::InputError(args.positional[1], "channel WHEELS", "no wheel states");
+  const calib::FusedPose& last = poses.back();
+  std::printf("%zu poses; final x %.4f m, y %.4f m, heading %.3f deg (± %.3f), gyro bias %.6f rad/s\n",
+              poses.size(), last.pose.x, last.pose.y, last.pose.theta * 180 / M_PI,
+              last.heading_std * 180 / M_PI, last.gyro_bias);
+  if (args.Has("--out")) {
+    std::ostringstream csv;
+    csv.precision(17);
+    csv << "utime,x,y,theta,heading_std,gyro_bias\n";
+    for (const calib::FusedPose& p : poses)
+      csv << p.utime << "," << p.pose.x << "," << p.pose.y << "," << p.pose.theta << "," << p.heading_std << ","
+          << p.gyro_bias << "\n";
+    calib::WriteFileAtomically(args.Get("--out", ""), csv.str());
+  }
+  return calib::kExitOk;
+}
+
+}  // namespace agvcal_cli
