@@ -23,8 +23,6 @@
 #include "calib/simulator.h"
 #include "calib/solve_log.h"
 
-// GCC cannot see that lcm-gen's decode fills every field of a decoded message.
-#pragma GCC diagnostic ignored "-Wmaybe-uninitialized"
 
 namespace calib {
 namespace {
@@ -55,7 +53,7 @@ Recording Simulate(const SimConfig& config, const OfflineRunOptions& run) {
       EXPECT_TRUE(Decode(e.data.data(), size, &m));
       r.imu.push_back(ImuSampleFromMessage(m, "sim"));
     } else if (e.channel == kGroundTruthChannel) {
-      agvcal::pose2d_t m;
+      agvcal::pose2d_t m{};
       if (!Decode(e.data.data(), size, &m)) {
         ADD_FAILURE() << "GROUND_TRUTH does not decode";
         continue;
