@@ -82,6 +82,14 @@ TEST(DashboardModel, RateWindowForgetsOldArrivals) {
   const ChannelView scan = model.Channels(t)[0];
   EXPECT_NEAR(scan.rate_hz, 20.0, 1e-6);
   EXPECT_NEAR(scan.data_rate_hz, 20.0, 1e-6);
+  // Every fifth message lost: fewer arrivals, the same data rate.
+  DashboardModel lossy;
+  t = u = 0;
+  for (int i = 0; i <= 100; ++i, t += 10000, u += 10000)
+    if (i % 5 != 4) lossy.OnMessage("WHEELS", "wheel_state_t", true, u, t);
+  const ChannelView wheels = lossy.Channels(t)[0];
+  EXPECT_NEAR(wheels.data_rate_hz, 100.0, 1e-6);
+  EXPECT_NEAR(wheels.rate_hz, 80.0, 1.0);
   // Undecodable messages are counted.
   model.OnMessage("SCAN", "laser_scan_t", false, std::nullopt, t);
   EXPECT_EQ(model.Channels(t)[0].undecodable, 1);
@@ -238,7 +246,7 @@ TEST(TextPlot, DotPlotBraille) {
 
 TEST(TextPlot, DotPlotAsciiAndBars) {
   const std::vector<std::string> rows = DotPlot({0, 1, 2}, 4, 3, 0, 2, Glyphs::kAscii);
-  EXPECT_EQ(rows, (std::vector<std::string>{"   *", "  * ", " *  "}));
+  EXPECT_EQ(rows, (std::vector<std::string>{"   '", "  - ", " _  "}));  // levels 0, 4, 8 of 0..8
   EXPECT_EQ(BarColumns({0, 1, 4, 2}, 2, Glyphs::kAscii), (std::vector<std::string>{"  # ", " ###"}));
   // Block glyphs: 4 of max 4 fills 16 eighths; 1 -> 4 eighths (half a cell); 2 -> one full cell.
   EXPECT_EQ(BarColumns({1, 4, 2}, 2, Glyphs::kUnicode),

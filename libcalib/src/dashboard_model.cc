@@ -2,6 +2,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <vector>
 
 namespace calib {
 
@@ -14,6 +15,17 @@ double Rate(const std::deque<int64_t>& stamps) {
   if (stamps.size() < 2) return 0;
   const int64_t span = stamps.back() - stamps.front();
   return span > 0 ? (stamps.size() - 1) / Seconds(span) : 0;
+}
+
+// The rate of a regular source from its stamps: 1 / median interval, so that lost
+// messages (a busy receiver) do not lower it. 0 for fewer than two stamps.
+double MedianRate(const std::deque<int64_t>& stamps) {
+  std::vector<int64_t> steps;
+  for (std::size_t i = 1; i < stamps.size(); ++i) steps.push_back(stamps[i] - stamps[i - 1]);
+  if (steps.empty()) return 0;
+  std::nth_element(steps.begin(), steps.begin() + steps.size() / 2, steps.end());
+  const int64_t median = steps[steps.size() / 2];
+  return median > 0 ? 1.0 / Seconds(median) : 0;
 }
 
 template <typename T>
@@ -100,7 +112,7 @@ std::vector<ChannelView> DashboardModel::Channels(int64_t now_us) const {
     v.stale = Stale(c.last_arrival, now_us);
     if (!v.stale) {
       v.rate_hz = Rate(c.arrivals);
-      v.data_rate_hz = Rate(c.utimes);
+      v.data_rate_hz = MedianRate(c.utimes);
     }
     out.push_back(v);
   }

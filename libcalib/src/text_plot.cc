@@ -56,12 +56,13 @@ std::string Sparkline(const std::vector<double>& values, int width, Glyphs glyph
 std::vector<std::string> DotPlot(const std::vector<double>& values, int width, int height,
                                  double lo, double hi, Glyphs glyphs) {
   if (width <= 0 || height <= 0) return {};
-  if (glyphs == Glyphs::kAscii) {
+  if (glyphs == Glyphs::kAscii) {  // three heights per cell: _ - '
+    static const char kMarks[] = "_-'";
     std::vector<std::string> rows(height, std::string(width, ' '));
     const int n = std::min<int>(width, static_cast<int>(values.size()));
     for (int i = 0; i < n; ++i) {
-      const int level = Level(values[values.size() - n + i], lo, hi, height);
-      rows[height - 1 - level][width - n + i] = '*';
+      const int level = Level(values[values.size() - n + i], lo, hi, 3 * height);
+      rows[height - 1 - level / 3][width - n + i] = kMarks[level % 3];
     }
     return rows;
   }

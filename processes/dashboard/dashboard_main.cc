@@ -92,6 +92,7 @@ class Listener {
       if (decoded && channel == calib::kHeartbeatChannel) {
         agvcal::heartbeat_t m;
         if (Read(rbuf, &m)) model_->OnHeartbeat(m, now);
+        utime.reset();  // wall-clock beats of several processes: no data rate of one source
       } else if (decoded && channel == calib::kCommanderStatusChannel) {
         agvcal::commander_status_t m;
         if (Read(rbuf, &m)) model_->OnCommanderStatus(m, now);

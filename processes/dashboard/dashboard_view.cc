@@ -160,8 +160,9 @@ double DrawResidualPlot(const calib::DashboardModel& model, int k, int y, int x,
 
 void DrawOverview(const calib::DashboardModel& model, int64_t now_us, const ViewState& state) {
   int y = DrawEstimateStatus(model.Estimate(now_us), 1);
-  y = DrawParameterTable(model, y, state.glyphs, std::min(RowsLeft(y) - 9, 12));
-  if (RowsLeft(y) >= 5 && !model.residuals().empty()) {
+  // The parameters first; the residuals, channels, processes and commander below as rows allow.
+  y = DrawParameterTable(model, y, state.glyphs, RowsLeft(y) - 2);
+  if (RowsLeft(y) >= 7 && !model.residuals().empty()) {
     ++y;
     std::string head = "residual rms";
     for (int k = 0; k < 3; ++k) {
@@ -171,13 +172,13 @@ void DrawOverview(const calib::DashboardModel& model, int64_t now_us, const View
     head += Format("  (%d, %d outliers)", model.Stats(0).count, model.Stats(0).outliers);
     Put(y++, 0, head, kPlain, true);
     for (int k = 0; k < 3; ++k, ++y) {
-      const double range = DrawResidualPlot(model, k, y, 16, COLS - 16, 1, state.glyphs);
+      const double range = DrawResidualPlot(model, k, y, 18, COLS - 18, 1, state.glyphs);
       Put(y, 0, Format("%-3s +-%.3g %s", kComponentNames[k], range, kComponentUnits[k]));
     }
   }
   // Channels, three to a row, then processes and the commander on one row each.
   const std::vector<calib::ChannelView> channels = model.Channels(now_us);
-  if (RowsLeft(y) >= 3 && !channels.empty()) {
+  if (RowsLeft(y) >= 5 && !channels.empty()) {
     Put(++y, 0, "channels (Hz of data)", kPlain, true);
     ++y;
     const int per_row = std::max(1, COLS / 26);

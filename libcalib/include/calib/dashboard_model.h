@@ -5,7 +5,8 @@
 // caller chooses: the wall clock live, anything in tests) and keeps:
 //  - per channel: message count, arrival rate on the bus, data rate from the
 //    messages' own utime (robot clock, so a replay at -s 4 still reads 20 Hz
-//    for a 20 Hz lidar), time since the last message, stale or not;
+//    for a 20 Hz lidar; 1 / the median interval, so messages lost by a busy
+//    receiver do not lower it), time since the last message, stale or not;
 //  - per process (HEARTBEAT): pid, state, time since the last beat, restarts
 //    (a new pid under the same name);
 //  - the solver's estimates (CALIB_ESTIMATE): each parameter's value and sigma
@@ -47,7 +48,7 @@ struct ChannelView {
   std::string type;        // "" when the channel's message type is not known
   int64_t count = 0;
   double rate_hz = 0;      // arrivals per second over the window; 0 when stale
-  double data_rate_hz = 0; // from the messages' utime over the same window; 0 if unknown
+  double data_rate_hz = 0; // 1 / median utime step over the same window; 0 if unknown
   double age_s = 0;        // since the last message
   bool stale = false;
   int64_t undecodable = 0; // messages of a known type that did not decode

@@ -19,7 +19,8 @@ std::string Sparkline(const std::vector<double>& values, int width, Glyphs glyph
 // The last values as dots in `width` x `height` cells, the oldest on the left,
 // `lo` at the bottom and `hi` at the top (values outside are clamped to the edge
 // rows). Braille cells hold 2 x 4 dots, so the last 2 * width values are drawn,
-// consecutive dots joined vertically; ASCII draws `width` values, one `*` each.
+// consecutive dots joined vertically; ASCII draws `width` values, one of _ - '
+// each (three heights per cell).
 // Rows top first.
 std::vector<std::string> DotPlot(const std::vector<double>& values, int width, int height,
                                  double lo, double hi, Glyphs glyphs);
