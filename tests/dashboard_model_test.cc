@@ -90,6 +90,10 @@ TEST(DashboardModel, RateWindowForgetsOldArrivals) {
   const ChannelView wheels = lossy.Channels(t)[0];
   EXPECT_NEAR(wheels.data_rate_hz, 100.0, 1e-6);
   EXPECT_NEAR(wheels.rate_hz, 80.0, 1.0);
+  // A burst (the solver's residuals after a solve) is not read as thousands per second.
+  DashboardModel burst;
+  for (int i = 0; i < 20; ++i) burst.OnMessage("CALIB_RESIDUALS", "", true, std::nullopt, t + i * 10);
+  EXPECT_NEAR(burst.Channels(t + 200)[0].rate_hz, 20.0, 1e-9);
   // Undecodable messages are counted.
   model.OnMessage("SCAN", "laser_scan_t", false, std::nullopt, t);
   EXPECT_EQ(model.Channels(t)[0].undecodable, 1);

@@ -10,11 +10,12 @@ namespace {
 
 double Seconds(int64_t us) { return us * 1e-6; }
 
-// Events per second over a window's timestamps (first to last), 0 for fewer than two.
+// Arrivals per second over a window's timestamps (first to last); over less than a
+// second of arrivals (a start, a burst of residuals) their count in that second.
 double Rate(const std::deque<int64_t>& stamps) {
-  if (stamps.size() < 2) return 0;
-  const int64_t span = stamps.back() - stamps.front();
-  return span > 0 ? (stamps.size() - 1) / Seconds(span) : 0;
+  if (stamps.empty()) return 0;
+  const double span = Seconds(stamps.back() - stamps.front());
+  return span >= 1.0 ? (stamps.size() - 1) / span : static_cast<double>(stamps.size());
 }
 
 // The rate of a regular source from its stamps: 1 / median interval, so that lost

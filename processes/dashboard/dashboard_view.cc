@@ -293,9 +293,9 @@ void DrawBus(const calib::DashboardModel& model, int64_t now_us) {
   const int reserve = 3 + static_cast<int>(processes.size());
   for (const calib::ChannelView& c : channels) {
     if (RowsLeft(y) <= std::min(reserve, RowsLeft(y) - 1)) break;
-    Put(y, 0, Format("%-18s %-18s %7lld %8.1f %8.1f %7s", c.name.c_str(),
-                     c.type.empty() ? "?" : c.type.c_str(), static_cast<long long>(c.count), c.rate_hz,
-                     c.data_rate_hz, Age(c.age_s).c_str()));
+    const std::string data_hz = c.data_rate_hz > 0 ? Format("%8.1f", c.data_rate_hz) : "       -";
+    Put(y, 0, Format("%-18s %-18s %7lld %8.1f %s %7s", c.name.c_str(), c.type.empty() ? "?" : c.type.c_str(),
+                     static_cast<long long>(c.count), c.rate_hz, data_hz.c_str(), Age(c.age_s).c_str()));
     std::string state = c.stale ? "STALE" : "ok";
     if (c.undecodable) state += Format(" %lld bad", static_cast<long long>(c.undecodable));
     Put(y++, 72, state, c.stale || c.undecodable ? kBad : kGood);

@@ -147,7 +147,7 @@ check("dashboard exit=0" in screen("ctrlc"), "Ctrl-C quits with exit 0")
 sys.exit(1 if fails else 0)
 PY
 [ $? -eq 0 ] && pass "screen contents" || fail "screen contents (captures: see above)"
-for f in overview residuals; do echo "--- $f"; cat "$TMP/$f.txt"; done
+for f in overview residuals parameters bus_live; do echo "--- $f"; cat "$TMP/$f.txt"; done
 
 for _ in 1 2 3 4 5; do  # the tmux server exits shortly after kill-server
   left=$(pgrep -f "$BUILD/agvcal-(dashboard|scanmatch|solver|commander)|tmux -S $TMP" || true)  # the player is waited for

@@ -47,7 +47,8 @@ struct ChannelView {
   std::string name;
   std::string type;        // "" when the channel's message type is not known
   int64_t count = 0;
-  double rate_hz = 0;      // arrivals per second over the window; 0 when stale
+  double rate_hz = 0;      // arrivals per second over the window (over less than 1 s of
+                           // arrivals: their count); 0 when stale
   double data_rate_hz = 0; // 1 / median utime step over the same window; 0 if unknown
   double age_s = 0;        // since the last message
   bool stale = false;
