@@ -99,6 +99,9 @@ check(re.search(r"residual rms  x [0-9.]+ mm  y [0-9.]+ mm  yaw [0-9.e-]+ deg  \
       "residual rms line")
 check(sum(1 for c in ov if 0x2800 < ord(c) <= 0x28FF) > 30, "braille residual plots")
 check("commander finished  demo  segment 6/6" in ov, "commander finished")
+weak = live["observability"]["weak"]
+check(("observability: all parameters determined" in ov) if not weak else ("weak: " + " ".join(weak) in ov),
+      f"observability state (weak: {weak})")
 # Rates while the replay runs at -s 2: data rates from the robot clock, bus rates about twice
 # that (less when a busy machine loses messages).
 def rates(channel):
