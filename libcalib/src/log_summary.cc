@@ -22,16 +22,16 @@ namespace {
 
 // Decodes a message of type M and returns its utime; false if it does not decode.
 template <typename M>
-bool DecodeUtime(const std::vector<uint8_t>& data, int64_t* utime) {
+bool DecodeUtime(const uint8_t* data, size_t size, int64_t* utime) {
   M msg{};
-  if (!Decode(data.data(), static_cast<int>(data.size()), &msg)) return false;
+  if (!Decode(data, static_cast<int>(size), &msg)) return false;
   *utime = msg.utime;
   return true;
 }
 
 struct ChannelType {
   const char* type;
-  bool (*decode)(const std::vector<uint8_t>&, int64_t*);
+  bool (*decode)(const uint8_t*, size_t, int64_t*);
 };
 
 const std::map<std::string, ChannelType>& KnownChannels() {
@@ -53,6 +53,15 @@ const std::map<std::string, ChannelType>& KnownChannels() {
 
 }  // namespace
 
+std::optional<ChannelStamp> StampOf(const std::string& channel, const uint8_t* data, size_t size) {
+  const auto known = KnownChannels().find(channel);
+  if (known == KnownChannels().end()) return std::nullopt;
+  ChannelStamp stamp;
+  stamp.type = known->second.type;
+  stamp.decoded = known->second.decode(data, size, &stamp.utime);
+  return stamp;
+}
+
 LogSummary SummarizeLog(const std::string& path) {
   LogReader reader(path);
   LogSummary summary;
@@ -61,13 +70,13 @@ LogSummary SummarizeLog(const std::string& path) {
     ++summary.events;
     ChannelSummary& ch = summary.channels[event.channel];
     int64_t utime = event.timestamp;  // unknown channels: the logger's time
-    const auto known = KnownChannels().find(event.channel);
-    if (known != KnownChannels().end()) {
-      ch.type = known->second.type;
-      if (!known->second.decode(event.data, &utime))
+    if (const auto stamp = StampOf(event.channel, event.data.data(), event.data.size())) {
+      ch.type = stamp->type;
+      if (!stamp->decoded)
         throw InputError(path, "event " + std::to_string(event.event_number) + " at byte " +
                                    std::to_string(event.offset) + " (" + event.channel + ")",
-                         std::string("does not decode as ") + known->second.type);
+                         std::string("does not decode as ") + stamp->type);
+      utime = stamp->utime;
     }
     if (ch.count == 0) {
       ch.first_utime = utime;

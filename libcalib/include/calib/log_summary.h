@@ -4,7 +4,9 @@
 // spec/messages.md and arrive in time order.
 
 #include <cstdint>
+#include <cstddef>
 #include <map>
+#include <optional>
 #include <string>
 
 namespace calib {
@@ -22,6 +24,16 @@ struct LogSummary {
   std::map<std::string, ChannelSummary> channels;
   int64_t events = 0;
 };
+
+// A message's type and robot-clock utime, for the channels of spec/messages.md and
+// the project's channels whose message has a `utime` field.
+struct ChannelStamp {
+  const char* type = "";
+  bool decoded = false;  // false: the bytes are not a valid message of `type`
+  int64_t utime = 0;
+};
+// nullopt for a channel not in that list (its message type is not known).
+std::optional<ChannelStamp> StampOf(const std::string& channel, const uint8_t* data, size_t size);
 
 // Reads the whole log. Throws InputError (file, event, problem) for a corrupt
 // or truncated log, or a message on a known channel that does not decode.
