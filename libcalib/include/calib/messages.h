@@ -34,6 +34,8 @@ inline constexpr const char* kScanMatchChannel = "SCAN_MATCH";
 inline constexpr const char* kGroundEstimateChannel = "GROUND_ESTIMATE";
 // Default channel of a turret-mounted 3D lidar's angle (robot file lidar3d.rotation.channel).
 inline constexpr const char* kMountAngleChannel = "LIDAR3D_ANGLE";
+// The operator's stop (agvcal::operator_stop_t): the commander holds the robot until released.
+inline constexpr const char* kStopChannel = "STOP";
 
 // A command for the robot's wheels, named as in the robot file.
 agvcal::drive_command_t ToMessage(const DriveCommand& command, const RobotDescription& robot,
