@@ -634,8 +634,9 @@ TEST(CommanderSafetyTest, LimitsHoldThroughEveryKindOfHold) {
       if (c.mode == DriveMode::kWheels) {
         for (size_t i = 0; i < offsets.size(); ++i) {
           ASSERT_LE(std::abs(c.wheels.steer[i] - offsets[i]), lim.max_steer + kEps) << k;
-          if (!prev_steer.empty())
+          if (!prev_steer.empty()) {
             ASSERT_LE(std::abs(c.wheels.steer[i] - prev_steer[i]) / dt, lim.max_steer_rate + 1e-6) << k;
+          }
         }
         prev_steer = c.wheels.steer;
       }
