@@ -9,7 +9,7 @@ cd "$here"
 
 packages=(build-essential cmake pkg-config ccache git iproute2 util-linux procps
   liblcm-dev liblcm-bin libglib2.0-dev libeigen3-dev libceres-dev libyaml-cpp-dev
-  nlohmann-json3-dev libgtest-dev libncurses-dev zlib1g-dev libpcl-dev tmux)
+  nlohmann-json3-dev libgtest-dev libncurses-dev zlib1g-dev libpcl-dev tmux supervisor)
 sudo=""
 [ "$(id -u)" -eq 0 ] || sudo=sudo
 missing=()

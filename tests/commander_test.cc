@@ -2,6 +2,7 @@
 // the robot's limits, finishes with stop commands, keeps the robot near its
 // start, and covers the motions that make the parameters observable.
 #include "calib/commander.h"
+#include "calib/commander_safety.h"
 
 #include <gtest/gtest.h>
 
@@ -477,6 +478,172 @@ TEST(CommanderTest, CopiesAreIndependent) {
   EXPECT_EQ(ca.twist.vx, cb.twist.vx);
   a.Step(kStart + 9000000);
   EXPECT_EQ(b.Step(kStart + 6020000).utime, kStart + 6020000);
+}
+
+}  // namespace
+}  // namespace calib
+
+namespace calib {
+namespace {
+
+constexpr int64_t kWall = 1000000000;  // an arbitrary wall-clock origin, us
+
+CommanderSafety WatchedSafety() {
+  CommanderSafety s;
+  s.Watch("WHEELS", 0.5);
+  s.Watch("SCAN", 0.5);
+  s.Watch("own HEARTBEAT", 3.0);
+  return s;
+}
+
+TEST(CommanderSafetyTest, HoldsUntilEveryInputHasArrived) {
+  CommanderSafety s = WatchedSafety();
+  EXPECT_EQ(s.HoldReason(kWall).value_or(""), "waiting for SCAN");  // the first missing, by name
+  s.Seen("own HEARTBEAT", kWall);
+  s.Seen("WHEELS", kWall);
+  EXPECT_EQ(s.HoldReason(kWall).value_or(""), "waiting for SCAN");
+  s.Seen("SCAN", kWall);
+  EXPECT_FALSE(s.HoldReason(kWall).has_value());
+  s.Seen("IMU", kWall);  // not watched: no effect
+  EXPECT_FALSE(s.HoldReason(kWall + 400000).has_value());
+}
+
+TEST(CommanderSafetyTest, EachStaleInputHoldsTheRobotUntilItReturns) {
+  for (const char* input : {"WHEELS", "SCAN", "own HEARTBEAT"}) {
+    SCOPED_TRACE(input);
+    const double timeout_s = std::string(input) == "own HEARTBEAT" ? 3.0 : 0.5;
+    CommanderSafety s = WatchedSafety();
+    int64_t t = kWall;
+    // Every input arrives every 100 ms (heartbeats every second) except `input`, which stops at 1 s.
+    std::optional<std::string> first_hold;
+    int64_t held_at = 0;
+    for (; t <= kWall + 6000000; t += 100000) {
+      for (const char* other : {"WHEELS", "SCAN"})
+        if (std::string(other) != input || t <= kWall + 1000000) s.Seen(other, t);
+      if ((t - kWall) % 1000000 == 0 && (std::string(input) != "own HEARTBEAT" || t <= kWall + 1000000))
+        s.Seen("own HEARTBEAT", t);
+      const auto reason = s.HoldReason(t);
+      if (reason && !first_hold) {
+        first_hold = reason;
+        held_at = t;
+      }
+    }
+    ASSERT_TRUE(first_hold.has_value());
+    EXPECT_EQ(first_hold->rfind(std::string("no ") + input + " for", 0), 0u) << *first_hold;
+    // Held as soon as the silence exceeds the timeout, to the 100 ms step.
+    EXPECT_NEAR((held_at - (kWall + 1000000)) * 1e-6, timeout_s + 0.1, 0.1 + 1e-9);
+    EXPECT_TRUE(s.InputsStale(t));
+    s.Seen(input, t);  // it returns
+    EXPECT_FALSE(s.HoldReason(t).has_value());
+  }
+}
+
+TEST(CommanderSafetyTest, OperatorStopLatchesUntilReleasedAndComesFirst) {
+  CommanderSafety s = WatchedSafety();
+  for (const char* input : {"WHEELS", "SCAN", "own HEARTBEAT"}) s.Seen(input, kWall);
+  s.SetOperatorStop(true, "dashboard: key s");
+  for (int64_t t = kWall; t < kWall + 400000; t += 100000) {
+    for (const char* input : {"WHEELS", "SCAN", "own HEARTBEAT"}) s.Seen(input, t);
+    EXPECT_EQ(s.HoldReason(t).value_or(""), "operator stop (dashboard: key s)");
+    EXPECT_FALSE(s.InputsStale(t));
+  }
+  EXPECT_EQ(s.HoldReason(kWall + 9000000).value_or(""), "operator stop (dashboard: key s)");  // before staleness
+  s.SetOperatorStop(false, "");
+  EXPECT_FALSE(s.HoldReason(kWall + 300000).has_value());
+  EXPECT_EQ(s.HoldReason(kWall + 9000000).value_or("").rfind("no ", 0), 0u);
+}
+
+// The commander as the process runs it: held (stops sent, Interrupt) whenever the monitor
+// says so, for each kind of reason, over a whole default trajectory. No command it sends
+// exceeds a limit; a restart after a hold ramps up from rest.
+TEST(CommanderSafetyTest, LimitsHoldThroughEveryKindOfHold) {
+  for (const RobotDescription& robot : Robots()) {
+    SCOPED_TRACE(robot.name);
+    CommanderOptions options;
+    options.command_timeout_s = 0.5;
+    Commander commander(robot, MakeTrajectory(robot, "default"), options);
+    CommanderSafety safety = WatchedSafety();
+    const double total = commander.nominal_duration_s();
+    // Holds: the operator (2 s), scans silent (1.5 s), wheels silent (1 s), heartbeat lost (4 s).
+    struct Episode { double at_fraction, length_s; const char* kind; };
+    const std::vector<Episode> episodes = {
+        {0.15, 2.0, "operator"}, {0.4, 1.5, "SCAN"}, {0.6, 1.0, "WHEELS"}, {0.8, 4.0, "own HEARTBEAT"}};
+    CommandRun run;
+    bool held = false;
+    int holds = 0;
+    int64_t t = kStart, wall = kWall;
+    for (; commander.status().state != CommanderState::kFinished ||
+           run.commands.back().mode != DriveMode::kStop;
+         t += kStepUs, wall += kStepUs) {
+      ASSERT_LT(t, kStart + static_cast<int64_t>((total + 60.0) * 1e6));
+      const double elapsed = (t - kStart) * 1e-6;
+      std::string silent;
+      bool operator_stop = false;
+      for (const Episode& e : episodes) {
+        const double start = e.at_fraction * total;
+        if (elapsed >= start && elapsed < start + e.length_s) {
+          if (std::string(e.kind) == "operator") {
+            operator_stop = true;
+          } else {
+            silent = e.kind;
+          }
+        }
+      }
+      safety.SetOperatorStop(operator_stop, "test");
+      for (const char* input : {"WHEELS", "SCAN"})
+        if (silent != input) safety.Seen(input, wall);
+      if (silent != "own HEARTBEAT" && (wall - kWall) % 1000000 == 0) safety.Seen("own HEARTBEAT", wall);
+      if (safety.HoldReason(wall)) {
+        if (!held) commander.Interrupt(t - kStepUs);
+        held = true;
+        DriveCommand stop;
+        stop.mode = DriveMode::kStop;
+        stop.timeout_s = options.command_timeout_s;
+        run.commands.push_back(stop);
+        run.statuses.push_back(commander.status());
+        continue;
+      }
+      if (held) ++holds;
+      held = false;
+      run.commands.push_back(commander.Step(t));
+      run.statuses.push_back(commander.status());
+    }
+    EXPECT_EQ(holds, 4);
+    // Full limits for every motion command; from a stop (the robot's own brake) the
+    // acceleration counts from rest.
+    const auto model = MakeDriveModel(robot);
+    const double dt = kStepUs * 1e-6;
+    const std::vector<double> offsets = Offsets(robot);
+    const Limits& lim = robot.limits;
+    Twist2 prev;
+    std::vector<double> prev_contact(offsets.size(), 0.0), prev_steer;
+    for (size_t k = 0; k < run.commands.size(); ++k) {
+      const DriveCommand& c = run.commands[k];
+      ASSERT_EQ(c.timeout_s, 0.5);
+      const Twist2 tw = CommandTwist(*model, c);
+      const std::vector<double> contact = ContactSpeeds(robot, *model, c);
+      ASSERT_LE(std::hypot(tw.vx, tw.vy), lim.max_speed + kEps) << k;
+      ASSERT_LE(std::abs(tw.omega), lim.max_omega + kEps) << k;
+      if (c.mode != DriveMode::kStop) {
+        ASSERT_LE(std::hypot(tw.vx - prev.vx, tw.vy - prev.vy) / dt, lim.max_accel + 1e-6) << k;
+        for (size_t i = 0; i < contact.size(); ++i) {
+          ASSERT_LE(std::abs(contact[i]), lim.max_speed + kEps) << k;
+          ASSERT_LE(std::abs(contact[i] - prev_contact[i]) / dt, lim.max_accel + 1e-6) << k;
+        }
+      }
+      if (c.mode == DriveMode::kWheels) {
+        for (size_t i = 0; i < offsets.size(); ++i) {
+          ASSERT_LE(std::abs(c.wheels.steer[i] - offsets[i]), lim.max_steer + kEps) << k;
+          if (!prev_steer.empty()) {
+            ASSERT_LE(std::abs(c.wheels.steer[i] - prev_steer[i]) / dt, lim.max_steer_rate + 1e-6) << k;
+          }
+        }
+        prev_steer = c.wheels.steer;
+      }
+      prev = tw;
+      prev_contact = contact;
+    }
+  }
 }
 
 }  // namespace

@@ -32,12 +32,23 @@ LogReader::~LogReader() {
   if (file_) std::fclose(file_);
 }
 
-bool LogReader::Next(LogEvent* event) {
+bool LogReader::Next(LogEvent* event) { return Read(event, false); }
+
+bool LogReader::NextComplete(LogEvent* event) { return Read(event, true); }
+
+bool LogReader::Read(LogEvent* event, bool incomplete_tail_is_end) {
+  // An event still being written: back to its start, for a later call.
+  auto tail = [&]() {
+    std::clearerr(file_);
+    std::fseek(file_, static_cast<long>(offset_), SEEK_SET);
+    return false;
+  };
   const std::string place =
       "event " + std::to_string(count_) + " at byte " + std::to_string(offset_);
   uint8_t header[28];
   const size_t got = std::fread(header, 1, sizeof(header), file_);
-  if (got == 0 && std::feof(file_)) return false;
+  if (got == 0 && std::feof(file_)) return incomplete_tail_is_end ? tail() : false;
+  if (got < sizeof(header) && incomplete_tail_is_end) return tail();
   if (got < sizeof(header)) throw InputError(path_, place, "truncated event header (log cut short)");
   if (ReadBigEndian(header, 4) != kSyncWord)
     throw InputError(path_, place, "bad sync word: not an LCM log, or corrupt");
@@ -52,8 +63,10 @@ bool LogReader::Next(LogEvent* event) {
   event->channel.resize(channel_length);
   event->data.resize(data_length);
   if (std::fread(event->channel.data(), 1, channel_length, file_) != size_t(channel_length) ||
-      std::fread(event->data.data(), 1, data_length, file_) != size_t(data_length))
+      std::fread(event->data.data(), 1, data_length, file_) != size_t(data_length)) {
+    if (incomplete_tail_is_end) return tail();
     throw InputError(path_, place, "truncated event (log cut short)");
+  }
   event->offset = offset_;
   offset_ += sizeof(header) + channel_length + data_length;
   ++count_;

@@ -19,6 +19,7 @@ Commands:
   ground ROBOT.yaml LOG|CLOUD_FILE [--out RESULT.json]
                               3D lidar height, pitch and roll above the floor
   fuse ROBOT.yaml LOG         wheel odometry fused with the gyro (docs/imu.md)
+  stop [--release]            the operator's stop on the bus: the commander holds the robot
 Run 'agvcal COMMAND --help' for a command's options.
 
 Exit status: 0 success, 2 unusable input (names the file, place and problem),
@@ -37,6 +38,7 @@ int Run(int argc, char** argv) {
       {"import", agvcal_cli::Import},
       {"ground", agvcal_cli::Ground},
       {"fuse", agvcal_cli::Fuse},
+      {"stop", agvcal_cli::Stop},
   };
   const auto it = kCommands.find(argv[1]);
   if (it == kCommands.end())

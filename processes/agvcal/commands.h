@@ -10,5 +10,6 @@ int Solve(int argc, char** argv);
 int Import(int argc, char** argv);
 int Ground(int argc, char** argv);
 int Fuse(int argc, char** argv);
+int Stop(int argc, char** argv);
 
 }  // namespace agvcal_cli

@@ -1,8 +1,11 @@
 // agvcal-commander: drives the excitation trajectory of a robot file on the
 // LCM bus. Its clock is the newest WHEELS time (robot clock); it publishes
 // DRIVE_CMD at a fixed rate of robot time, COMMANDER_STATUS with each command
-// and a HEARTBEAT each wall-clock second, and stops the robot when the wheel
-// states go quiet (wall clock), on SIGINT/SIGTERM and at the end.
+// and a HEARTBEAT each wall-clock second. It holds the robot still (stop
+// commands, calib/commander_safety.h) while WHEELS, the lidar's scans or its own
+// HEARTBEAT are stale (wall clock) and while the operator's STOP is engaged,
+// and stops it on SIGINT/SIGTERM and at the end; if it crashes, the timeout of
+// its last command stops the robot.
 #include <lcm/lcm-cpp.hpp>
 
 #include <algorithm>
@@ -12,10 +15,15 @@
 #include <map>
 #include <optional>
 
+#include <unistd.h>
+
 #include "agvcal/commander_status_t.hpp"
 #include "agvcal/drive_command_t.hpp"
+#include "agvcal/heartbeat_t.hpp"
+#include "agvcal/operator_stop_t.hpp"
 #include "agvcal/wheel_state_t.hpp"
 #include "calib/commander.h"
+#include "calib/commander_safety.h"
 #include "calib/errors.h"
 #include "calib/messages.h"
 #include "calib/robot.h"
@@ -25,17 +33,23 @@ namespace {
 
 const char* kUsage =
     R"(usage: agvcal-commander ROBOT.yaml [--trajectory NAME] [--stale-timeout S] [--rate HZ]
-                        [--lcm-url URL]
+                        [--heartbeat-timeout S] [--ignore-scans] [--lcm-url URL]
 
 Drives the robot of ROBOT.yaml through an excitation trajectory within the
 limits of the robot file: publishes DRIVE_CMD, using the time of the newest
-WHEELS message as its clock, and COMMANDER_STATUS and HEARTBEAT.
+WHEELS message as its clock, and COMMANDER_STATUS and HEARTBEAT. The robot is
+held still (stop commands; the trajectory resumes from rest afterwards) while
+WHEELS or the lidar's scans (lidar2d channel of ROBOT.yaml) are stale, while its
+own HEARTBEAT does not come back from the bus, and from an operator stop on
+STOP (`agvcal stop`) until its release (`agvcal stop --release`).
   --trajectory NAME   excitation trajectory (default "default"); per drive type:
                         differential: default umbmark turns figure8 demo straight
                         tricycle:     default demo straight
                         dual_steer:   default three_segment demo straight
-  --stale-timeout S   wall-clock seconds without WHEELS after which the robot is
-                      told to stop (default 0.5); it resumes when they return
+  --stale-timeout S   wall-clock seconds without WHEELS (or scans) after which the
+                      robot is told to stop (default 0.5); it resumes when they return
+  --heartbeat-timeout S  the same for its own HEARTBEAT, back from the bus (default 3)
+  --ignore-scans      do not watch the lidar's scans (a robot driven without its lidar)
   --rate HZ           commands per second of robot time (default 20)
   --lcm-url URL       LCM provider (default: $LCM_DEFAULT_URL or LCM's default)
 Exit status: 0 trajectory finished or stopped by SIGINT/SIGTERM (a stop command
@@ -73,6 +87,29 @@ class WheelListener {
   std::map<std::string, double> first_steer_;
 };
 
+// Tells the safety monitor when scans, its own heartbeats and operator stops arrive.
+class SafetyListener {
+ public:
+  explicit SafetyListener(calib::CommanderSafety* safety) : safety_(safety) {}
+  void OnScan(const lcm::ReceiveBuffer*, const std::string& channel) {
+    safety_->Seen(channel, agvcal_process::WallMicros());
+  }
+  void OnHeartbeat(const lcm::ReceiveBuffer*, const std::string&, const agvcal::heartbeat_t* msg) {
+    if (msg->process == "commander" && msg->pid == getpid())
+      safety_->Seen(kOwnHeartbeat, agvcal_process::WallMicros());
+  }
+  void OnStop(const lcm::ReceiveBuffer*, const std::string&, const agvcal::operator_stop_t* msg) {
+    if (msg->stop != safety_->operator_stop())
+      std::cerr << "agvcal-commander: operator " << (msg->stop ? "stop" : "release") << " from "
+                << msg->source << (msg->reason.empty() ? "" : ": " + msg->reason) << "\n";
+    safety_->SetOperatorStop(msg->stop, msg->source + (msg->reason.empty() ? "" : ": " + msg->reason));
+  }
+  static constexpr const char* kOwnHeartbeat = "own HEARTBEAT";
+
+ private:
+  calib::CommanderSafety* safety_;
+};
+
 // True steering angle of each wheel role from raw readings keyed by wheel name (0 where missing).
 std::vector<double> TrueSteer(const calib::RobotDescription& robot,
                               const std::map<std::string, double>& raw) {
@@ -96,11 +133,16 @@ const char* StateName(calib::CommanderState s) {
 int Run(int argc, char** argv) {
   using namespace agvcal_process;
   const Args args = ParseArgs(argc, argv, 1,
-                              {"--trajectory", "--stale-timeout", "--rate", "--lcm-url"}, {});
+                              {"--trajectory", "--stale-timeout", "--heartbeat-timeout", "--rate",
+                               "--lcm-url"},
+                              {"--ignore-scans"});
   if (const auto status = agvcal_process::CheckUsage(args, kUsage, 1)) return *status;
   const double stale_timeout_s = args.GetDouble("--stale-timeout", 0.5);
+  const double heartbeat_timeout_s = args.GetDouble("--heartbeat-timeout", 3.0);
   const double rate_hz = args.GetDouble("--rate", 20.0);
   if (!(stale_timeout_s > 0)) throw calib::InputError("command line", "--stale-timeout", "must be > 0");
+  if (!(heartbeat_timeout_s >= 1.5))  // heartbeats come once a second
+    throw calib::InputError("command line", "--heartbeat-timeout", "must be >= 1.5");
   if (!(rate_hz > 0 && rate_hz <= 1000)) {
     throw calib::InputError("command line", "--rate", "must be in (0, 1000]");
   }
@@ -112,23 +154,31 @@ int Run(int argc, char** argv) {
   options.command_timeout_s = std::max(0.5, 3.0 / rate_hz);  // outlives a few command periods
   const calib::Commander plan(robot, trajectory, options);  // validates before touching the bus
 
+  calib::CommanderSafety safety;
+  safety.Watch(calib::kWheelsChannel, stale_timeout_s);
+  const bool watch_scans = robot.lidar2d && !args.Has("--ignore-scans");
+  if (watch_scans) safety.Watch(robot.lidar2d->channel, stale_timeout_s);
+  safety.Watch(SafetyListener::kOwnHeartbeat, heartbeat_timeout_s);
+
   const std::string url = args.Get("--lcm-url", "");
   lcm::LCM lcm(url);
   RequireGoodBus(lcm, url);
   WheelListener wheels;
+  SafetyListener safety_listener(&safety);
   lcm.subscribe(calib::kWheelsChannel, &WheelListener::OnWheels, &wheels);
+  if (watch_scans) lcm.subscribe(robot.lidar2d->channel, &SafetyListener::OnScan, &safety_listener);
+  lcm.subscribe(calib::kHeartbeatChannel, &SafetyListener::OnHeartbeat, &safety_listener);
+  lcm.subscribe(calib::kStopChannel, &SafetyListener::OnStop, &safety_listener);
   Heartbeat heartbeat(&lcm, "commander");
   InstallStopHandlers();
 
   std::optional<calib::Commander> commander;
   const int64_t period_us = std::max<int64_t>(1, std::llround(1e6 / rate_hz));
-  const int64_t stale_us = std::llround(stale_timeout_s * 1e6);
   int64_t seq = 0;
   int64_t last_utime = 0;         // newest wheel-state time (robot clock)
   int64_t next_command_utime = 0;
-  int64_t last_wheels_wall = WallMicros();
-  int64_t last_stale_stop_wall = 0;
-  bool stale = false;
+  int64_t last_hold_stop_wall = 0;
+  std::optional<std::string> held;  // why the robot is being held still
   int final_stops = 0;
 
   // Stamps are the wheel-state time; a stop sent without a newer wheel state (stale inputs, the
@@ -155,7 +205,7 @@ int Run(int argc, char** argv) {
         commander ? commander->status() : calib::CommanderStatus{};
     msg.segment = st.segment;
     msg.num_segments = static_cast<int32_t>(trajectory.segments.size());
-    msg.segment_name = commander ? st.segment_description : "waiting for WHEELS";
+    msg.segment_name = held ? *held : commander ? st.segment_description : "waiting for WHEELS";
     msg.state = state;
     lcm.publish(calib::kCommanderStatusChannel, &msg);
   };
@@ -177,67 +227,68 @@ int Run(int argc, char** argv) {
       std::cerr << "agvcal-commander: stop requested, robot told to stop\n";
       return finish("stopped");
     }
-    const int64_t wall = WallMicros();
-    const int64_t until_stale = stale ? period_us : last_wheels_wall + stale_us - wall;
-    const int wait_ms = static_cast<int>(std::clamp<int64_t>(until_stale / 1000, 0, 100));
-    if (lcm.handleTimeout(wait_ms) < 0 && !g_stop_requested) {
+    if (lcm.handleTimeout(static_cast<int>(std::clamp<int64_t>(period_us / 4000, 1, 20))) < 0 &&
+        !g_stop_requested) {
       throw std::runtime_error("receiving from the LCM bus failed");
     }
+    heartbeat.Beat(held ? "held: " + *held
+                   : !commander ? "waiting for WHEELS"
+                                : std::string(StateName(commander->status().state)) + " segment " +
+                                      std::to_string(commander->status().segment + 1) + "/" +
+                                      std::to_string(commander->status().num_segments));
 
-    if (wheels.TakeFresh()) {
-      last_wheels_wall = WallMicros();
+    const bool fresh = wheels.TakeFresh();
+    if (fresh) {
+      safety.Seen(calib::kWheelsChannel, WallMicros());
       const int64_t utime = wheels.utime();
       if (commander && utime < last_utime) continue;  // older than what we have: ignore
       last_utime = utime;
-      if (stale) {
-        stale = false;
-        std::cerr << "agvcal-commander: WHEELS " << (commander ? "back, resuming" : "arriving, starting")
-                  << "\n";
+    }
+    const std::optional<std::string> reason = safety.HoldReason(WallMicros());
+    if (reason) {
+      if (!held || *held != *reason) {
+        if (!held && commander) commander->Interrupt(last_utime);
+        if (!held || reason->rfind("no ", 0) != 0)  // the seconds of a stale input keep counting
+          std::cerr << "agvcal-commander: " << *reason << ", robot told to stop\n";
+        held = reason;
       }
-      if (!commander) {
-        calib::CommanderOptions opts = options;
-        if (robot.drive != calib::DriveType::kDifferential)
-          opts.initial_steer = TrueSteer(robot, wheels.first_steer());
-        commander.emplace(robot, trajectory, opts);
-        next_command_utime = utime;
-      }
-      if (utime >= next_command_utime) {
-        calib::DriveCommand command = commander->Step(utime);
-        command.utime = utime;
-        publish_command(command);
-        const calib::CommanderStatus st = commander->status();
-        publish_status(StateName(st.state));
-        next_command_utime += period_us;
-        if (next_command_utime <= utime) next_command_utime = utime + period_us;
-        if (st.state == calib::CommanderState::kFinished && ++final_stops >= kFinalStops) {
-          std::cerr << "agvcal-commander: trajectory finished\n";
-          return finish("finished");
-        }
-      }
-    } else if (WallMicros() - last_wheels_wall > stale_us) {
-      if (!stale) {
-        stale = true;
-        if (commander) commander->Interrupt(last_utime);
-        std::cerr << "agvcal-commander: no WHEELS for " << stale_timeout_s
-                  << " s, robot told to stop\n";
-      }
-      if (WallMicros() - last_stale_stop_wall >= period_us) {
-        last_stale_stop_wall = WallMicros();
+      if (WallMicros() - last_hold_stop_wall >= period_us) {
+        last_hold_stop_wall = WallMicros();
         publish_stop();
-        publish_status("stale_inputs");
+        publish_status(safety.operator_stop() ? "operator_stop" : "stale_inputs");
       }
       if (commander && commander->status().state == calib::CommanderState::kFinished) {
         for (int k = 1; k < kFinalStops; ++k) publish_stop();
         return finish("finished");
       }
+      continue;
     }
-
-    const calib::CommanderStatus st = commander ? commander->status() : calib::CommanderStatus{};
-    heartbeat.Beat(stale ? "stale_inputs"
-                   : !commander ? "waiting for WHEELS"
-                                : std::string(StateName(st.state)) + " segment " +
-                                      std::to_string(st.segment + 1) + "/" +
-                                      std::to_string(st.num_segments));
+    if (held) {
+      std::cerr << "agvcal-commander: " << (commander ? "inputs back, resuming" : "inputs arriving, starting")
+                << "\n";
+      held.reset();
+    }
+    if (!fresh) continue;
+    if (!commander) {
+      calib::CommanderOptions opts = options;
+      if (robot.drive != calib::DriveType::kDifferential)
+        opts.initial_steer = TrueSteer(robot, wheels.first_steer());
+      commander.emplace(robot, trajectory, opts);
+      next_command_utime = last_utime;
+    }
+    if (last_utime >= next_command_utime) {
+      calib::DriveCommand command = commander->Step(last_utime);
+      command.utime = last_utime;
+      publish_command(command);
+      const calib::CommanderStatus st = commander->status();
+      publish_status(StateName(st.state));
+      next_command_utime += period_us;
+      if (next_command_utime <= last_utime) next_command_utime = last_utime + period_us;
+      if (st.state == calib::CommanderState::kFinished && ++final_stops >= kFinalStops) {
+        std::cerr << "agvcal-commander: trajectory finished\n";
+        return finish("finished");
+      }
+    }
   }
 }
 

@@ -1,8 +1,10 @@
 #include "common/process_util.h"
 
+#include <algorithm>
 #include <chrono>
 #include <csignal>
 #include <cstdlib>
+#include <filesystem>
 #include <iostream>
 #include <unistd.h>
 
@@ -50,6 +52,60 @@ void Heartbeat::Beat(const std::string& state, bool force) {
   msg.pid = static_cast<int32_t>(getpid());
   msg.state = state;
   lcm_->publish(calib::kHeartbeatChannel, &msg);
+}
+
+CatchUpInput::CatchUpInput(lcm::LCM* lcm, const std::vector<std::string>& channels, Deliver deliver)
+    : lcm_(lcm), channels_(channels), deliver_(std::move(deliver)) {
+  for (const std::string& c : channels_) lcm_->subscribe(c, &CatchUpInput::OnMessage, this);
+}
+
+void CatchUpInput::OnMessage(const lcm::ReceiveBuffer* buffer, const std::string& channel) {
+  const auto* data = static_cast<const uint8_t*>(buffer->data);
+  if (!holding_) return Offer(channel, data, buffer->data_size);
+  if (const auto stamp = calib::LeadingStamp(data, buffer->data_size)) tracker_->Live(channel, *stamp);
+  held_.emplace_back(channel, std::vector<uint8_t>(data, data + buffer->data_size));
+}
+
+void CatchUpInput::Offer(const std::string& channel, const uint8_t* data, size_t size) {
+  const auto stamp = calib::LeadingStamp(data, size);
+  if (stamp && !filter_.Accept(channel, *stamp)) return;
+  deliver_(channel, data, size);  // a message too short for a stamp: the decoder rejects it
+}
+
+int64_t CatchUpInput::CatchUp(const std::string& recording, const std::string& program,
+                              Heartbeat* heartbeat, double limit_s) {
+  constexpr int64_t kQuietUs = 2000000;  // a channel silent this long live has nothing missing
+  holding_ = true;
+  tracker_.emplace(channels_, kQuietUs);
+  const int64_t start = WallMicros();
+  std::optional<calib::LogReader> reader;
+  int64_t recovered = 0;
+  calib::LogEvent event;
+  while (!g_stop_requested) {
+    lcm_->handleTimeout(20);
+    if (!reader && std::filesystem::exists(recording)) reader.emplace(recording);
+    while (reader && reader->NextComplete(&event)) {
+      if (std::find(channels_.begin(), channels_.end(), event.channel) == channels_.end()) continue;
+      if (const auto stamp = calib::LeadingStamp(event.data.data(), event.data.size()))
+        tracker_->Recorded(event.channel, *stamp);
+      Offer(event.channel, event.data.data(), event.data.size());
+      ++recovered;
+    }
+    const int64_t elapsed = WallMicros() - start;
+    if (reader && tracker_->Complete(elapsed)) break;
+    if (elapsed > limit_s * 1e6) {
+      std::cerr << program << ": catching up from " << recording << " took over " << limit_s
+                << " s; messages may be missing on " << tracker_->Pending(elapsed) << "\n";
+      break;
+    }
+    if (heartbeat) heartbeat->Beat("catching up");
+  }
+  holding_ = false;
+  for (const auto& [channel, bytes] : held_) Offer(channel, bytes.data(), bytes.size());
+  held_.clear();
+  std::cerr << program << ": caught up: " << recovered << " messages from " << recording << ", "
+            << duplicates() << " duplicates dropped\n";
+  return recovered;
 }
 
 std::string Args::Get(const std::string& key, const std::string& fallback) const {

@@ -7,11 +7,13 @@
 
 #include <atomic>
 #include <cstdint>
+#include <functional>
 #include <map>
 #include <optional>
 #include <string>
 #include <vector>
 
+#include "calib/catch_up.h"
 #include "calib/recording.h"
 
 namespace agvcal_process {
@@ -50,6 +52,38 @@ class Heartbeat {
   lcm::LCM* lcm_;
   std::string process_;
   int64_t last_ = 0;
+};
+
+// Raw subscription to `channels` that delivers each message once, in stamp
+// order per channel (calib/catch_up.h); with CatchUp(), first what the group's
+// recording holds of what was published before this process subscribed, so a
+// process restarted mid-run ends with the inputs of an undisturbed one.
+class CatchUpInput {
+ public:
+  using Deliver = std::function<void(const std::string& channel, const uint8_t* data, size_t size)>;
+  CatchUpInput(lcm::LCM* lcm, const std::vector<std::string>& channels, Deliver deliver);
+
+  // Reads `recording` (lcm-logger's file, still being written; waited for if
+  // it does not exist yet) until it reaches the first live message of every
+  // channel, at most `limit_s` wall seconds, then delivers the live messages
+  // held meanwhile. Progress and any gap left are reported on stderr under
+  // `program`. Returns the number of messages taken from the recording.
+  int64_t CatchUp(const std::string& recording, const std::string& program, Heartbeat* heartbeat,
+                  double limit_s = 10.0);
+  // Messages dropped as already delivered (the recording and live overlap).
+  int64_t duplicates() const { return filter_.rejected(); }
+
+ private:
+  void OnMessage(const lcm::ReceiveBuffer* buffer, const std::string& channel);
+  void Offer(const std::string& channel, const uint8_t* data, size_t size);
+
+  lcm::LCM* lcm_;
+  std::vector<std::string> channels_;
+  Deliver deliver_;
+  calib::StampFilter filter_;
+  bool holding_ = false;
+  std::optional<calib::CatchUpTracker> tracker_;
+  std::vector<std::pair<std::string, std::vector<uint8_t>>> held_;
 };
 
 // Command line: positional arguments and --key value / --flag options.

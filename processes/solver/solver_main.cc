@@ -3,7 +3,9 @@
 // and publishes CALIB_ESTIMATE and CALIB_RESIDUALS; on SIGINT/SIGTERM solves
 // once more on everything and writes RESULT.json. The solve is a function of
 // the messages' contents, not of their arrival times, so a replay of a
-// recording ends with the numbers `agvcal solve` gives for it.
+// recording ends with the numbers `agvcal solve` gives for it. With
+// --catch-up (as scripts/agvcal-group runs it) a solver restarted mid-run first
+// takes what it missed from the group's recording, and ends with the same numbers.
 #include <lcm/lcm-cpp.hpp>
 
 #include <iostream>
@@ -20,7 +22,7 @@
 namespace {
 
 const char* kUsage = R"(usage: agvcal-solver ROBOT.yaml [--source lidar2d|pose] [--every N] [--time-offset]
-                     [--out RESULT.json] [--lcm-url URL]
+                     [--out RESULT.json] [--catch-up RECORDING] [--lcm-url URL]
 
 Calibrates the robot of ROBOT.yaml live: WHEELS with SCAN_MATCH (the 2D lidar's
 motion from agvcal-scanmatch) or with POSE (an external pose source). Publishes
@@ -30,6 +32,9 @@ CALIB_RESIDUALS (per-interval residuals), and HEARTBEAT.
   --every N               re-solve after N new motions (default 200)
   --time-offset           also estimate the lidar-to-wheel time offset
   --out RESULT.json       on exit, solve on all data and write the result (spec/cli.md)
+  --catch-up RECORDING    on start, first read the inputs published so far from the
+                          group's recording (lcm-logger's file, still being written),
+                          then continue live; each message is used once (by stamp)
   --lcm-url URL           LCM provider (default: $LCM_DEFAULT_URL or LCM's default)
 Exit status: 0 stopped by SIGINT/SIGTERM (after the final solve), 2 bad robot
 file, bus or message, 3 the final solve cannot determine a parameter, 1 internal.
@@ -41,19 +46,33 @@ class Solver {
          lcm::LCM* lcm)
       : robot_(robot), source_(source), options_(options), data_(robot_), lcm_(lcm) {}
 
-  void OnWheels(const lcm::ReceiveBuffer*, const std::string& channel, const agvcal::wheel_state_t* msg) {
-    Guard([&] { data_.AddWheels(*msg, channel); });
-  }
-  void OnPose(const lcm::ReceiveBuffer*, const std::string&, const agvcal::pose2d_t* msg) {
-    Guard([&] { data_.AddPose(*msg); });
-    MaybeSolve();
-  }
-  void OnScanMatch(const lcm::ReceiveBuffer*, const std::string& channel, const agvcal::scan_match_t* msg) {
-    Guard([&] { data_.AddMotion(calib::FromMessage(*msg, channel)); });
-    MaybeSolve();
+  // One encoded message of `channel` (WHEELS, or the motion channel).
+  void OnMessage(const std::string& channel, const uint8_t* data, size_t size) {
+    Guard([&] {
+      if (channel == calib::kWheelsChannel) {
+        agvcal::wheel_state_t m;
+        if (Decoded(channel, data, size, &m)) data_.AddWheels(m, channel);
+        return;
+      }
+      if (source_ == calib::MotionSource::kPose) {
+        agvcal::pose2d_t m;
+        if (!Decoded(channel, data, size, &m)) return;
+        data_.AddPose(m);
+      } else {
+        agvcal::scan_match_t m;
+        if (!Decoded(channel, data, size, &m)) return;
+        data_.AddMotion(calib::FromMessage(m, channel));
+      }
+      if (!holding_solves_) MaybeSolve();
+    });
   }
 
   void set_every(std::size_t every) { every_ = every; }
+  // While catching up, no intermediate solves (they would be outdated at once).
+  void set_holding_solves(bool hold) {
+    holding_solves_ = hold;
+    if (!hold) MaybeSolve();
+  }
   bool failed() const { return error_.has_value(); }
   const std::string& error() const { return *error_; }
 
@@ -86,6 +105,17 @@ class Solver {
     }
   }
 
+  // A message of another type on our channel is skipped (as LCM's typed
+  // subscriptions do), and reported once.
+  template <typename Message>
+  bool Decoded(const std::string& channel, const uint8_t* data, size_t size, Message* m) {
+    if (calib::Decode(data, static_cast<int>(size), m)) return true;
+    if (undecodable_++ == 0)
+      std::cerr << "agvcal-solver: ignoring messages on " << channel << " that are not "
+                << Message::getTypeName() << " (reported once)\n";
+    return false;
+  }
+
   void MaybeSolve() {
     if (data_.motions().size() < solved_at_ + every_) return;
     solved_at_ = data_.motions().size();
@@ -113,13 +143,16 @@ class Solver {
   calib::CalibrationData data_;
   lcm::LCM* lcm_;
   std::size_t every_ = 200, solved_at_ = 0;
+  bool holding_solves_ = false;
+  int64_t undecodable_ = 0;
   int64_t last_residual_utime_ = 0;
   std::optional<std::string> error_;
 };
 
 int Run(int argc, char** argv) {
   using namespace agvcal_process;
-  const Args args = ParseArgs(argc, argv, 1, {"--source", "--every", "--out", "--lcm-url"}, {"--time-offset"});
+  const Args args = ParseArgs(argc, argv, 1, {"--source", "--every", "--out", "--catch-up", "--lcm-url"},
+                              {"--time-offset"});
   if (const auto status = CheckUsage(args, kUsage, 1)) return *status;
   const calib::RobotDescription robot = calib::LoadRobotFile(args.positional[0]);
   const std::string source_name = args.Get("--source", robot.lidar2d ? "lidar2d" : "pose");
@@ -137,16 +170,28 @@ int Run(int argc, char** argv) {
   RequireGoodBus(lcm, url);
   Solver solver(robot, source, options, &lcm);
   solver.set_every(static_cast<std::size_t>(every));
-  lcm.subscribe(calib::kWheelsChannel, &Solver::OnWheels, &solver);
-  if (source == calib::MotionSource::kPose)
-    lcm.subscribe(robot.pose ? robot.pose->channel : calib::kPoseChannel, &Solver::OnPose, &solver);
-  else
-    lcm.subscribe(calib::kScanMatchChannel, &Solver::OnScanMatch, &solver);
+  const std::string motion_channel = source == calib::MotionSource::kPose
+                                         ? (robot.pose ? robot.pose->channel : calib::kPoseChannel)
+                                         : calib::kScanMatchChannel;
+  CatchUpInput input(&lcm, {calib::kWheelsChannel, motion_channel},
+                     [&solver](const std::string& channel, const uint8_t* data, size_t size) {
+                       solver.OnMessage(channel, data, size);
+                     });
   Heartbeat heartbeat(&lcm, "solver");
   InstallStopHandlers();
+  if (args.Has("--catch-up")) {
+    solver.set_holding_solves(true);
+    input.CatchUp(args.Get("--catch-up", ""), "agvcal-solver", &heartbeat);
+    solver.set_holding_solves(false);
+  }
   while (!g_stop_requested) {
     lcm.handleTimeout(100);
     heartbeat.Beat("running");
+  }
+  // Messages already received when the stop came (e.g. the scan matcher's last
+  // matches, sent just before it stopped) still count; at most 2 s of them.
+  const int64_t drain_end = WallMicros() + 2000000;
+  while (WallMicros() < drain_end && lcm.handleTimeout(50) > 0) {
   }
   if (solver.failed()) throw calib::InputError("bus", "message", solver.error());
   const calib::CalibrationResult result = solver.Solve(true);

@@ -33,6 +33,11 @@ stderr_has "zigzag"
 expect_status 2 "unknown option" "$AGVCAL" simulate config/sims/diff_robot.yaml "$TMP/out.log" --sped 3
 expect_status 2 "group without a source" scripts/agvcal-group
 expect_status 2 "group with a missing recording" scripts/agvcal-group --replay "$TMP/nothing.log"
+touch "$TMP/exists.log"
+expect_status 2 "group never overwrites a recording" scripts/agvcal-group --replay logs/forklift_demo.log --log "$TMP/exists.log"
+stderr_has "exists.log"
+expect_status 2 "group: a commander needs a robot, not a replay" scripts/agvcal-group --replay logs/forklift_demo.log --commander
+expect_status 2 "group: bad --process" scripts/agvcal-group --robot config/robots/forklift.yaml --process 'no command'
 for cmd in "$AGVCAL" "$BUILD/agvcal-sim" "$BUILD/agvcal-commander" scripts/agvcal-group; do
   expect_status 0 "$(basename "$cmd") --help" "$cmd" --help
 done

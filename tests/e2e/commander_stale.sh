@@ -8,7 +8,7 @@ cat >"$TMP/run.sh" <<SCRIPT
 lcm-logger -f -c 'DRIVE_CMD|COMMANDER_STATUS' "$TMP/commands.log" >/dev/null 2>&1 & logger=\$!
 "$BUILD/agvcal-commander" config/robots/diff_robot.yaml --trajectory default --stale-timeout 0.5 & commander=\$!
 sleep 0.5
-lcm-logplayer -s 4 -e '^WHEELS\$' "$TMP/wheels.log" >/dev/null 2>&1   # about 7 s of wheel states, then silence
+lcm-logplayer -s 4 -e '^(WHEELS|SCAN)\$' "$TMP/wheels.log" >/dev/null 2>&1   # about 7 s of wheel states, then silence
 sleep 2
 kill -INT \$commander; wait \$commander; echo "commander exit \$?"
 sleep 0.5; kill -INT \$logger; wait \$logger

@@ -1,14 +1,15 @@
 #!/usr/bin/env bash
 # The group stops as one: on Ctrl-C (SIGINT) the recording is complete and
-# readable and no process is left; when one process dies, the others stop and
-# the group reports it.
+# readable and no process is left; when the commander dies (it is never
+# restarted: a new one would start its trajectory over), the others stop and
+# the group reports it; every process has its own output file.
 source "$(dirname "$0")/lib.bash" "$@"
 run_in_ns() {  # runs the group in its own namespace in the background, records its pid
   # Job control, so the background group does not inherit SIGINT as ignored
   # (as it would from a non-interactive shell) and Ctrl-C can reach it.
   set -m
   scripts/netns-run scripts/agvcal-group --sim config/sims/diff_robot.yaml --trajectory default \
-    --speed 2 --log "$TMP/$1.log" >"$TMP/$1.out" 2>&1 &
+    --speed 2 --log "$TMP/$1.log" --run-dir "$TMP/$1" >>"$TMP/$1.out" 2>&1 &
   group=$!
   set +m
   sleep 6
@@ -18,10 +19,18 @@ kill -INT "$group"; wait "$group"; code=$?
 [ "$code" -eq 130 ] && pass "Ctrl-C: group exits 130" || fail "Ctrl-C: group exited $code; $(tail -5 "$TMP/interrupted.out")"
 expect_status 0 "Ctrl-C: the recording is complete and decodes" "$AGVCAL" info "$TMP/interrupted.log"
 grep -q WHEELS "$TMP/stdout" && pass "Ctrl-C: recording has WHEELS" || fail "Ctrl-C: recording lacks WHEELS"
+for p in logger solver scanmatch sim commander; do
+  [ -e "$TMP/interrupted/$p.out" ] || fail "no output file of $p"
+done
+grep -q "agvcal-commander: stop requested" "$TMP/interrupted/commander.out" \
+  && pass "each process's output in its own file" || fail "commander.out: $(cat "$TMP/interrupted/commander.out")"
+python3 -c 'import json, sys; assert json.load(open(sys.argv[1]))["residual"]["intervals"] > 5' \
+  "$TMP/interrupted/RESULT.json" && pass "the solver's final solve wrote RESULT.json on Ctrl-C" \
+  || fail "no RESULT.json; solver.out: $(tail -3 "$TMP/interrupted/solver.out")"
 no_orphans
 
 run_in_ns crashed
-pkill -KILL -P "$group" -f agvcal-commander && pass "commander killed" || fail "no commander to kill"
+pkill -KILL -f "$BUILD/agvcal-commander " && pass "commander killed" || fail "no commander to kill"
 wait "$group"; code=$?
 [ "$code" -eq 1 ] && pass "a dead process stops the group with exit 1" || fail "group exited $code after a crash"
 grep -q "commander exited" "$TMP/crashed.out" && pass "the group names the dead process" || fail "no message naming the commander: $(tail -3 "$TMP/crashed.out")"

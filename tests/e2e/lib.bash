@@ -22,7 +22,7 @@ expect_status() {
 stderr_has() { if grep -qF -- "$1" "$TMP/stderr"; then pass "message names '$1'"; else fail "message lacks '$1': $(head -c 400 "$TMP/stderr")"; fi; }
 no_orphans() {
   local left
-  left=$(pgrep -f "$BUILD/agvcal-(sim|commander)|lcm-logger -f $TMP|lcm-logplayer" || true)
-  if [ -z "$left" ]; then pass "no process left behind"; else fail "processes left behind: $left"; pkill -9 -f "$BUILD/agvcal-" || true; fi
+  left=$(pgrep -f "$BUILD/agvcal-(sim|commander|solver|scanmatch)|lcm-logger .*$TMP|lcm-logplayer .*($TMP|$SRC)|supervisord -n -c $TMP" || true)
+  if [ -z "$left" ]; then pass "no process left behind"; else fail "processes left behind: $(ps -o pid=,args= -p "$(echo $left | tr " " ,)")"; pkill -9 -f "$BUILD/agvcal-" || true; fi
 }
 finish() { echo "checks: $passes passed, $fails failed"; [ "$fails" -eq 0 ]; exit $?; }

@@ -5,11 +5,21 @@
 //   e2e_log_check stale LOG                   the commander reported stale inputs and stopped the robot
 //   e2e_log_check scanmatch LOG ROBOT.yaml LIVE  SCAN_MATCH in LIVE equals the offline pipeline
 //                                             run over LOG's WHEELS and scans, bit for bit
+//   e2e_log_check limits LOG ROBOT.yaml       no DRIVE_CMD exceeds the robot file's limits
+//   e2e_log_check held LOG STATE [CHANNEL]    from the commander's first STATE status (after it
+//                                             has driven) until it runs
+//                                             again, only stop commands (CHANNEL still arriving),
+//                                             and the true robot at rest
+//   e2e_log_check halted LOG                  after the last DRIVE_CMD (commander killed), the
+//                                             true robot comes to rest by itself
+// Times between processes are the logger's receive times (wall clock).
 // Prints one line per check and exits 1 if any fails.
 #include <algorithm>
 #include <cmath>
 #include <iostream>
 #include <map>
+#include <optional>
+#include <stdexcept>
 #include <string>
 #include <vector>
 
@@ -212,6 +222,163 @@ int Fusion(const std::string& log, const std::string& robot_file, const std::str
   return failures ? 1 : 0;
 }
 
+struct Event {
+  int64_t wall;  // logger receive time, us
+  calib::LogEvent e;
+};
+
+std::vector<Event> ReadAll(const std::string& log) {
+  std::vector<Event> out;
+  calib::LogReader reader(log);
+  calib::LogEvent e;
+  while (reader.Next(&e)) out.push_back({e.timestamp, e});
+  return out;
+}
+
+template <typename Message>
+Message As(const calib::LogEvent& e) {
+  Message m;
+  if (!calib::Decode(e.data.data(), int(e.data.size()), &m)) throw std::runtime_error("undecodable " + e.channel);
+  return m;
+}
+
+int Limits(const std::string& log, const std::string& robot_file) {
+  const calib::RobotDescription robot = calib::LoadRobotFile(robot_file);
+  const auto model = calib::MakeDriveModel(robot);
+  const calib::Limits& lim = robot.limits;
+  const std::vector<std::string> roles = calib::WheelRoles(robot.drive);
+  std::vector<double> radii, offsets;
+  for (const std::string& role : roles) {
+    radii.push_back(robot.param(role + "_radius"));
+    double offset = 0.0;
+    if (robot.drive == calib::DriveType::kTricycle) offset = robot.param("steer_offset");
+    if (robot.drive == calib::DriveType::kDualSteer && role == "a1") offset = robot.param("a1_steer_offset");
+    offsets.push_back(offset);
+  }
+  constexpr double kTol = 1e-6;
+  int motion = 0, stops = 0, over = 0;
+  std::string first_over;
+  auto exceed = [&](bool bad, const std::string& what, int64_t utime) {
+    if (!bad) return;
+    if (over++ == 0) first_over = what + " at utime " + std::to_string(utime);
+  };
+  std::optional<calib::DriveCommand> prev;  // previous command
+  std::optional<calib::DriveCommand> prev_motion;
+  for (const Event& ev : ReadAll(log)) {
+    if (ev.e.channel != calib::kDriveCmdChannel) continue;
+    const auto m = As<agvcal::drive_command_t>(ev.e);
+    exceed(!(m.timeout > 0), "no timeout", m.utime);
+    const calib::DriveCommand c = calib::FromMessage(m, robot, log);
+    if (c.mode == calib::DriveMode::kStop) {
+      ++stops;
+      prev = c;
+      continue;
+    }
+    ++motion;
+    const calib::Twist2 tw = c.mode == calib::DriveMode::kTwist ? c.twist : model->Forward(c.wheels);
+    const calib::WheelSetpoint w = c.mode == calib::DriveMode::kTwist ? model->Inverse(c.twist) : c.wheels;
+    exceed(std::hypot(tw.vx, tw.vy) > lim.max_speed + kTol, "speed", m.utime);
+    exceed(std::abs(tw.omega) > lim.max_omega + kTol, "turn rate", m.utime);
+    for (size_t i = 0; i < roles.size(); ++i) {
+      exceed(std::abs(w.speed[i] * radii[i]) > lim.max_speed + kTol, roles[i] + " wheel speed", m.utime);
+      if (c.mode == calib::DriveMode::kWheels)
+        exceed(std::abs(c.wheels.steer[i] - offsets[i]) > lim.max_steer + kTol, roles[i] + " steering angle", m.utime);
+    }
+    if (prev && prev->mode == calib::DriveMode::kStop) {
+      // From the robot's own brake: the first command after a stop starts from rest.
+      exceed(std::hypot(tw.vx, tw.vy) > lim.max_accel * 0.05 + kTol, "restart speed", m.utime);
+    } else if (prev) {
+      const double dt = (c.utime - prev->utime) * 1e-6;
+      const calib::Twist2 p = prev->mode == calib::DriveMode::kTwist ? prev->twist : model->Forward(prev->wheels);
+      exceed(std::hypot(tw.vx - p.vx, tw.vy - p.vy) > lim.max_accel * dt + kTol, "acceleration", m.utime);
+    }
+    if (prev_motion && c.mode == calib::DriveMode::kWheels && prev_motion->mode == calib::DriveMode::kWheels) {
+      const double dt = (c.utime - prev_motion->utime) * 1e-6;
+      for (size_t i = 0; i < roles.size(); ++i)
+        exceed(std::abs(c.wheels.steer[i] - prev_motion->wheels.steer[i]) > lim.max_steer_rate * dt + kTol,
+               roles[i] + " steering rate", m.utime);
+    }
+    prev = c;
+    prev_motion = c;
+  }
+  Check(motion > 100, std::to_string(motion) + " motion commands, " + std::to_string(stops) + " stops");
+  Check(over == 0, std::to_string(over) + " limits exceeded" + (over ? " (first: " + first_over + ")" : ""));
+  return failures ? 1 : 0;
+}
+
+// The true robot's largest speed over GROUND_TRUTH events received in (from, to), and their count.
+std::pair<double, int> TrueSpeed(const std::vector<Event>& events, int64_t from, int64_t to) {
+  double fastest = 0.0;
+  int n = 0;
+  std::optional<agvcal::pose2d_t> last;
+  for (const Event& ev : events) {
+    if (ev.e.channel != calib::kGroundTruthChannel || ev.wall <= from || ev.wall >= to) continue;
+    const auto p = As<agvcal::pose2d_t>(ev.e);
+    if (last && p.utime > last->utime)
+      fastest = std::max(fastest, std::hypot(p.x - last->x, p.y - last->y) / ((p.utime - last->utime) * 1e-6));
+    last = p;
+    ++n;
+  }
+  return {fastest, n};
+}
+
+int Held(const std::string& log, const std::string& state, const std::string& flowing) {
+  const std::vector<Event> events = ReadAll(log);
+  int64_t start = -1, end = INT64_MAX;
+  bool ran = false;  // a hold while driving, not the wait for inputs at the start
+  for (const Event& ev : events) {
+    if (ev.e.channel != calib::kCommanderStatusChannel) continue;
+    const auto st = As<agvcal::commander_status_t>(ev.e);
+    if (start < 0 && ran && st.state == state) start = ev.wall;
+    ran = ran || st.state == "running";
+    if (start >= 0 && st.state == "running") {
+      end = ev.wall;
+      break;
+    }
+  }
+  Check(start >= 0, "the commander reported " + state);
+  if (start < 0) return 1;
+  const int64_t from = start + 150000;  // commands already on the way
+  int stops = 0, motion = 0, flowed = 0, after = 0;
+  for (const Event& ev : events) {
+    if (ev.e.channel == calib::kDriveCmdChannel) {
+      const auto m = As<agvcal::drive_command_t>(ev.e);
+      // The first command after the release goes out just before its "running" status.
+      if (ev.wall > from && ev.wall < end - 50000) (m.mode == agvcal::drive_command_t::MODE_STOP ? stops : motion)++;
+      if (ev.wall > end && m.mode != agvcal::drive_command_t::MODE_STOP) ++after;
+    }
+    if (!flowing.empty() && ev.e.channel == flowing && ev.wall > from && ev.wall < end) ++flowed;
+  }
+  Check(motion == 0 && stops >= 5, "while held: " + std::to_string(stops) + " stop commands, " +
+                                       std::to_string(motion) + " motion commands");
+  if (!flowing.empty()) Check(flowed >= 10, flowing + " kept arriving (" + std::to_string(flowed) + ")");
+  if (end != INT64_MAX) Check(after > 10, "released: it drove on (" + std::to_string(after) + " motion commands)");
+  const auto [speed, n] = TrueSpeed(events, start + 1000000, end);
+  if (n > 0) Check(n >= 10 && speed < 0.01, "the robot stood still from 1 s after the hold: " +
+                                                 std::to_string(n) + " poses, fastest " + std::to_string(speed) + " m/s");
+  return failures ? 1 : 0;
+}
+
+int Halted(const std::string& log) {
+  const std::vector<Event> events = ReadAll(log);
+  int64_t last = -1;
+  int last_mode = -1;
+  for (const Event& ev : events)
+    if (ev.e.channel == calib::kDriveCmdChannel) {
+      last = ev.wall;
+      last_mode = As<agvcal::drive_command_t>(ev.e).mode;
+    }
+  Check(last >= 0, "DRIVE_CMD recorded");
+  if (last < 0) return 1;
+  const auto [before, nb] = TrueSpeed(events, last - 500000, last);
+  std::cout << "info: last command mode " << last_mode << ", true speed before it up to " << before << " m/s (" << nb
+            << " poses)\n";
+  const auto [speed, n] = TrueSpeed(events, last + 1000000, INT64_MAX);
+  Check(n >= 10 && speed < 0.01, "from 1 s after the last command the robot stood still: " + std::to_string(n) +
+                                     " poses, fastest " + std::to_string(speed) + " m/s");
+  return failures ? 1 : 0;
+}
+
 int Run(int argc, char** argv) {
   const std::string mode = argc > 1 ? argv[1] : "";
   if (mode == "rates" && argc >= 4) return Rates(argc, argv);
@@ -220,8 +387,12 @@ int Run(int argc, char** argv) {
   if (mode == "stale" && argc == 3) return Stale(argv[2]);
   if (mode == "scanmatch" && argc == 5) return ScanMatch(argv[2], argv[3], argv[4]);
   if (mode == "fusion" && argc == 5) return Fusion(argv[2], argv[3], argv[4]);
+  if (mode == "limits" && argc == 4) return Limits(argv[2], argv[3]);
+  if (mode == "held" && (argc == 4 || argc == 5)) return Held(argv[2], argv[3], argc == 5 ? argv[4] : "");
+  if (mode == "halted" && argc == 3) return Halted(argv[2]);
   std::cerr << "usage: e2e_log_check rates LOG CHANNEL=HZ... | tracking LOG ROBOT.yaml | same A B |"
-               " stale LOG | scanmatch LOG ROBOT.yaml LIVE | fusion LOG ROBOT.yaml LIVE\n";
+               " stale LOG | scanmatch LOG ROBOT.yaml LIVE | fusion LOG ROBOT.yaml LIVE |"
+               " limits LOG ROBOT.yaml | held LOG STATE [CHANNEL] | halted LOG\n";
   return 2;
 }
 

@@ -36,6 +36,8 @@ inline constexpr const char* kGroundEstimateChannel = "GROUND_ESTIMATE";
 inline constexpr const char* kOdomFusedChannel = "ODOM_FUSED";
 // Default channel of a turret-mounted 3D lidar's angle (robot file lidar3d.rotation.channel).
 inline constexpr const char* kMountAngleChannel = "LIDAR3D_ANGLE";
+// The operator's stop (agvcal::operator_stop_t): the commander holds the robot until released.
+inline constexpr const char* kStopChannel = "STOP";
 
 // A command for the robot's wheels, named as in the robot file.
 agvcal::drive_command_t ToMessage(const DriveCommand& command, const RobotDescription& robot,

@@ -35,9 +35,15 @@ class LogReader {
   // implausible length or a truncated event.
   bool Next(LogEvent* event);
 
+  // Like Next, for a log still being written (lcm-logger's): an incomplete
+  // event at the end is not an error but the end for now; a later call reads
+  // it once it is complete.
+  bool NextComplete(LogEvent* event);
+
   const std::string& path() const { return path_; }
 
  private:
+  bool Read(LogEvent* event, bool incomplete_tail_is_end);
   std::string path_;
   std::FILE* file_ = nullptr;
   uint64_t offset_ = 0;

@@ -1,0 +1,48 @@
+// agvcal stop: the operator's stop on the bus (STOP, agvcal::operator_stop_t).
+#include <lcm/lcm-cpp.hpp>
+
+#include <iostream>
+
+#include "agvcal/operator_stop_t.hpp"
+#include "calib/errors.h"
+#include "calib/messages.h"
+#include "commands.h"
+#include "common/process_util.h"
+
+namespace agvcal_cli {
+
+namespace {
+const char* kUsage = R"(usage: agvcal stop [--release] [--reason TEXT] [--lcm-url URL]
+
+Publishes the operator's stop on STOP: the trajectory commander stops the robot
+and holds it (sending stop commands) until `agvcal stop --release`, then resumes
+its trajectory from rest. The message is sent three times, 50 ms apart (UDP).
+  --release      release a stop
+  --reason TEXT  logged with the stop
+  --lcm-url URL  LCM provider (default: $LCM_DEFAULT_URL or LCM's default)
+)";
+}  // namespace
+
+int Stop(int argc, char** argv) {
+  using namespace agvcal_process;
+  const Args args = ParseArgs(argc, argv, 2, {"--reason", "--lcm-url"}, {"--release"});
+  if (const auto status = CheckUsage(args, kUsage, 0)) return *status;
+  const std::string url = args.Get("--lcm-url", "");
+  lcm::LCM lcm(url);
+  RequireGoodBus(lcm, url);
+  agvcal::operator_stop_t msg;
+  msg.utime = WallMicros();
+  msg.stop = !args.Has("--release");
+  msg.source = "agvcal stop";
+  msg.reason = args.Get("--reason", "");
+  for (int i = 0; i < 3; ++i) {
+    if (i > 0) lcm.handleTimeout(50);  // paces the repeats
+    if (lcm.publish(calib::kStopChannel, &msg) != 0)
+      throw calib::InputError(calib::kStopChannel, "", "publishing failed");
+  }
+  std::cerr << "agvcal stop: " << (msg.stop ? "stop" : "release") << " sent on " << calib::kStopChannel
+            << "\n";
+  return calib::kExitOk;
+}
+
+}  // namespace agvcal_cli
