@@ -18,6 +18,8 @@ Commands:
   import FORMAT INPUT OUT.log turn a dataset (carmen, mines, lego, optiodom, pose-csv) into a recording
   ground ROBOT.yaml LOG|CLOUD_FILE [--out RESULT.json]
                               3D lidar height, pitch and roll above the floor
+  recal ROBOT.yaml LOG --config RECAL.yaml
+                              recalibration during normal operation, on a recording
 Run 'agvcal COMMAND --help' for a command's options.
 
 Exit status: 0 success, 2 unusable input (names the file, place and problem),
@@ -35,6 +37,7 @@ int Run(int argc, char** argv) {
       {"solve", agvcal_cli::Solve},
       {"import", agvcal_cli::Import},
       {"ground", agvcal_cli::Ground},
+      {"recal", agvcal_cli::Recal},
   };
   const auto it = kCommands.find(argv[1]);
   if (it == kCommands.end())
