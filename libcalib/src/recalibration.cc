@@ -574,27 +574,30 @@ RecalDecision Decide(const SegmentBatch& batch, const CalibrationInUse& in_use,
   const ConsistencyTest& con = *d.consistency;
   const std::string heldout_text =
       "held-out odometry error " + Num(imp.mean_current * 100) + " -> " + Num(imp.mean_candidate * 100) +
-      " cm/m over " + std::to_string(heldout.size()) + " segments (" + Num(-imp.relative * 100, 2) +
+      " cm/m over " + std::to_string(heldout.size()) + " segments (" + (imp.relative < 0 ? "+" : "") +
+      Num(-imp.relative * 100, 2) +
       "%, t = " + Num(imp.t) + ", p = " + Num(imp.p, 2);
   const std::string consistency_text =
       "d2 = " + Num(con.d2) + ", " + std::to_string(con.dof) + " dof, p = " + Num(con.p, 2) +
       (con.consistent ? " >= " : " < ") + Num(config.consistency_alpha) + "; largest change " +
       con.largest + " " + Num(con.largest_sigmas, 2) + " sigma";
-  std::vector<std::string> problems;
-  if (!imp.significant) {
-    problems.push_back("not significantly better: " + heldout_text + "); needs p < " + Num(config.alpha) +
-                       " and at least " + Num(config.min_improvement * 100) + "% less error");
-  }
-  if (!con.consistent) problems.push_back("inconsistent with the calibration in use: " + consistency_text);
-  if (problems.empty()) {
+  const std::string better = imp.significant
+                                 ? "significantly better: " + heldout_text + " < " + Num(config.alpha) + ")"
+                                 : "not significantly better: " + heldout_text + "; needs p < " +
+                                       Num(config.alpha) + " and at least " +
+                                       Num(config.min_improvement * 100) + "% less error)";
+  const std::string consistent =
+      std::string(con.consistent ? "consistent" : "inconsistent") + " with the calibration in use: " + consistency_text;
+  if (imp.significant && con.consistent) {
     d.verdict = Verdict::kAccepted;
     d.after = *d.candidate;
-    d.after.covariance = d.candidate->covariance.diagonal().asDiagonal();
-    d.reason = "significantly better: " + heldout_text + " < " + Num(config.alpha) +
-               "); consistent with the calibration in use: " + consistency_text;
+    // As the robot file's std: reads back: a restart goes on bit for bit.
+    d.after.covariance = d.candidate->covariance.diagonal().cwiseSqrt().cwiseAbs2().asDiagonal();
+    d.reason = better + "; " + consistent;
   } else {
     d.verdict = Verdict::kRejected;
-    d.reason = problems[0] + (problems.size() > 1 ? "; " + problems[1] : "") +
+    // The failed test first.
+    d.reason = (imp.significant ? consistent + "; " + better : better + "; " + consistent) +
                "; the calibration in use is kept";
   }
   return d;
