@@ -74,6 +74,24 @@ d = [json.loads(l) for l in open(sys.argv[1])]
 assert [x["verdict"] for x in d] == ["rejected", "rejected"], [x["verdict"] for x in d]
 PY
 
+# Odometry distance windows instead of zones (no POSE needed): 4 m in every 9 m driven.
+cat > "$TMP/windows.yaml" <<'YAML'
+distance_windows: {start_m: 1, length_m: 4, period_m: 9}
+prior_std:
+  params: {drive_radius: 0.003, wheelbase: 0.03, steer_offset: 0.03}
+  lidar2d: {x: 0.03, y: 0.03, yaw: 0.03}
+YAML
+expect_status 0 "agvcal recal with distance windows" "$AGVCAL" recal "$robot" "$log" --config "$TMP/windows.yaml" \
+  --decisions "$TMP/windows.jsonl"
+python3 - "$TMP/windows.jsonl" <<'PY' && pass "distance windows: accepted, segments named by window" || fail "distance windows: $(cat "$TMP/stdout")"
+import json, sys
+d = [json.loads(l) for l in open(sys.argv[1])]
+assert [x["verdict"] for x in d] == ["accepted"], [x["verdict"] for x in d]
+assert d[0]["segments"]["fit"][0]["trigger"] == "window 0"
+assert all(abs(s["distance_m"] - 4.0) < 0.05 for s in d[0]["segments"]["fit"]), d[0]["segments"]["fit"]
+assert abs(d[0]["candidate"]["drive_radius"]["value"] - 0.1163) < 0.0004
+PY
+
 # Bad input.
 printf 'zones:\n  - {name: a, circle: {x: 0, y: 0, radius: 1}}\ndecision: {segmnts: 12}\n' > "$TMP/typo.yaml"
 expect_status 2 "config with a typo" "$AGVCAL" recal "$robot" "$log" --config "$TMP/typo.yaml"
