@@ -80,6 +80,8 @@ TEST(RecalConfigTest, ErrorsNameThePlace) {
   ExpectConfigError(zone + "decision: {segments: 4, holdout_every: 3}\n", "decision", "2 x holdout_every");
   ExpectConfigError("distance_windows: {length_m: 10, period_m: 5}\n", "period_m", "exceed length_m");
   ExpectConfigError(zone + "prior_std: {params: {drive_radius: -1}}\n", "prior_std.params.drive_radius", "");
+  ExpectConfigError(zone + "prior_std: {params: {drive_radus: 0.1}}\n", "prior_std.params.drive_radus",
+                    "did you mean drive_radius");
 }
 
 TEST(ZoneTest, PolygonAndCircle) {

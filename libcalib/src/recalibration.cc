@@ -164,8 +164,15 @@ RecalConfig ParseDocument(const Reporter& r, const Field& root) {
     const CheckedMap prior(r, *f, {"params", "lidar2d", "pose"});
     if (const auto p = prior.Find("params")) {
       if (!p->value.IsMap()) r.Fail(*p, "expected a map of parameter names to standard deviations");
+      std::vector<std::string> known;
+      for (DriveType type : {DriveType::kDifferential, DriveType::kTricycle, DriveType::kDualSteer})
+        for (const std::string& name : ParamNames(type)) known.push_back(name);
       for (const auto& entry : p->value) {
         const Field v{p->path + "." + entry.first.Scalar(), yaml::LineOf(entry.first.Mark()), entry.second};
+        if (std::find(known.begin(), known.end(), entry.first.Scalar()) == known.end()) {
+          const std::string suggestion = yaml::Suggest(entry.first.Scalar(), known);
+          r.Fail(v, "unknown drive parameter" + (suggestion.empty() ? "" : " (did you mean " + suggestion + "?)"));
+        }
         config.prior_std[entry.first.Scalar()] = ReadPositive(r, v);
       }
     }
