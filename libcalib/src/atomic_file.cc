@@ -3,6 +3,8 @@
 #include <cerrno>
 #include <cstdio>
 #include <cstring>
+#include <fstream>
+#include <sstream>
 
 #include "calib/errors.h"
 
@@ -19,6 +21,17 @@ void WriteFileAtomically(const std::string& path, const std::string& text) {
     std::remove(partial.c_str());
     throw InputError(path, "", "cannot write: " + why);
   }
+}
+
+void AppendFileAtomically(const std::string& path, const std::string& text) {
+  std::string existing;
+  std::ifstream in(path, std::ios::binary);
+  if (in) {
+    std::ostringstream buffer;
+    buffer << in.rdbuf();
+    existing = buffer.str();
+  }
+  WriteFileAtomically(path, existing + text);
 }
 
 }  // namespace calib

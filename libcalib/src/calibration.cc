@@ -233,8 +233,9 @@ Requirement RequirementFor(DriveType type, const std::string& name, double nomin
   return {0.05, "turn while driving: the sensor's position shows only when the robot rotates"};
 }
 
+// `keep_partial`: a window cut short by a gap or the end counts too (else it is dropped).
 OdometryError HeldoutOdometry(const std::vector<Interval>& intervals, const State& state,
-                              double window_s) {
+                              double window_s, bool keep_partial = false) {
   OdometryError out;
   double sum_t2 = 0, sum_h2 = 0, sum_t = 0;
   generic::Pose<double> measured{0, 0, 0}, predicted{0, 0, 0};
@@ -256,7 +257,10 @@ OdometryError HeldoutOdometry(const std::vector<Interval>& intervals, const Stat
   for (const Interval& it : intervals) {
     if (!it.heldout) continue;
     const SensorMotion& m = *it.motion;
-    if (open && m.utime_start != last_end) open = false;  // a gap: start over
+    if (open && m.utime_start != last_end) {  // a gap: start over
+      if (keep_partial) close();
+      open = false;
+    }
     if (!open) {
       measured = predicted = {0, 0, 0};
       distance = 0.0;
@@ -271,12 +275,75 @@ OdometryError HeldoutOdometry(const std::vector<Interval>& intervals, const Stat
     last_end = m.utime_end;
     if ((last_end - window_start) * 1e-6 >= window_s) close();
   }
+  if (keep_partial) close();
   if (out.windows > 0) {
     out.rms_translation_m = std::sqrt(sum_t2 / out.windows);
     out.rms_heading_rad = std::sqrt(sum_h2 / out.windows);
     out.error_per_metre = out.distance_m > 0 ? sum_t / out.distance_m : 0.0;
   }
   return out;
+}
+
+// The motions the encoders cover (with `margin_us` either side), in stamp order; the others
+// are counted in `summary`.
+std::vector<const SensorMotion*> UsableMotions(const WheelTrack& wheels,
+                                               const std::vector<SensorMotion>& motions,
+                                               double margin_us, ResidualSummary* summary) {
+  std::vector<const SensorMotion*> usable;
+  for (const SensorMotion& m : motions) {
+    if (!m.valid || m.utime_end <= m.utime_start) {
+      ++summary->invalid;
+    } else if (m.degenerate) {
+      ++summary->degenerate;
+    } else if (!wheels.Covers(m.utime_start - margin_us, m.utime_end + margin_us)) {
+      ++summary->invalid;
+    } else {
+      usable.push_back(&m);
+    }
+  }
+  std::stable_sort(usable.begin(), usable.end(), [](const SensorMotion* a, const SensorMotion* b) {
+    return a->utime_start < b->utime_start;
+  });
+  return usable;
+}
+
+// The cost of an interval: the encoder samples spanning it, times relative to its start.
+Interval MakeInterval(DriveType drive, int num_params, const WheelTrack& wheels,
+                      const SensorMotion& m, double margin_us, bool heldout) {
+  const auto& samples = wheels.samples();
+  const double t0 = m.utime_start - margin_us, t1 = m.utime_end + margin_us;
+  auto first = std::upper_bound(samples.begin(), samples.end(), t0,
+                                [](double t, const WheelSample& s) { return t < s.utime; });
+  if (first != samples.begin()) --first;
+  auto last = std::lower_bound(samples.begin(), samples.end(), t1,
+                               [](const WheelSample& s, double t) { return s.utime < t; });
+  if (last == samples.end()) --last;
+  std::vector<WheelSample> span(first, last + 1);
+  std::vector<double> times;
+  for (const WheelSample& s : span) times.push_back((s.utime - m.utime_start) * 1e-6);
+  Interval it;
+  it.motion = &m;
+  it.heldout = heldout;
+  const int num_wheels = static_cast<int>(WheelRoles(drive).size());
+  it.cost = std::make_unique<IntervalCost>(drive, num_wheels, std::move(times), std::move(span),
+                                           (m.utime_end - m.utime_start) * 1e-6, m.delta,
+                                           SqrtInformation(m.covariance));
+  it.function.reset(num_params == 3 ? MakeFunction<3>(it.cost.get()) : MakeFunction<5>(it.cost.get()));
+  return it;
+}
+
+// The robot file's values: drive parameters and the mount of `source` (0 when it has none).
+State StateOf(const RobotDescription& robot, MotionSource source) {
+  State state;
+  const std::vector<std::string>& names = ParamNames(robot.drive);
+  for (std::size_t i = 0; i < names.size(); ++i) state.params[i] = robot.params.at(names[i]);
+  const std::optional<Mount2d>& mount = source == MotionSource::kPose ? robot.pose : robot.lidar2d;
+  if (mount) {
+    state.mount[0] = mount->x;
+    state.mount[1] = mount->y;
+    state.mount[2] = mount->yaw;
+  }
+  return state;
 }
 
 }  // namespace
@@ -298,27 +365,11 @@ CalibrationResult Calibrate(const RobotDescription& robot, const WheelTrack& whe
   result.source = source;
   result.param_names = ParamNames(robot.drive);
   const int num_params = static_cast<int>(result.param_names.size());
-  const int num_wheels = static_cast<int>(WheelRoles(robot.drive).size());
-  const std::optional<Mount2d>& nominal_mount = source == MotionSource::kPose ? robot.pose : robot.lidar2d;
   const std::string mount_name = MotionSourceName(source);
 
   // Intervals the encoders cover (with room for the time offset), in stamp order.
   const double margin_us = options.estimate_time_offset ? options.max_time_offset_s * 1e6 : 0.0;
-  std::vector<const SensorMotion*> usable;
-  for (const SensorMotion& m : motions) {
-    if (!m.valid || m.utime_end <= m.utime_start) {
-      ++result.residual.invalid;
-    } else if (m.degenerate) {
-      ++result.residual.degenerate;
-    } else if (!wheels.Covers(m.utime_start - margin_us, m.utime_end + margin_us)) {
-      ++result.residual.invalid;
-    } else {
-      usable.push_back(&m);
-    }
-  }
-  std::stable_sort(usable.begin(), usable.end(), [](const SensorMotion* a, const SensorMotion* b) {
-    return a->utime_start < b->utime_start;
-  });
+  const std::vector<const SensorMotion*> usable = UsableMotions(wheels, motions, margin_us, &result.residual);
   const std::size_t num_fit =
       static_cast<std::size_t>(std::floor(usable.size() * std::clamp(options.fit_fraction, 0.0, 1.0)));
   if (num_fit < 20) {
@@ -330,41 +381,16 @@ CalibrationResult Calibrate(const RobotDescription& robot, const WheelTrack& whe
                          " failed or outside the encoder data); at least 20 are needed");
   }
 
-  // Cost of every interval: the encoder samples spanning it, times relative to its start.
   std::vector<Interval> intervals;
   std::vector<MotionInterval> closed_form_input;
-  const auto& samples = wheels.samples();
   for (std::size_t k = 0; k < usable.size(); ++k) {
     const SensorMotion& m = *usable[k];
-    const double t0 = m.utime_start - margin_us, t1 = m.utime_end + margin_us;
-    auto first = std::upper_bound(samples.begin(), samples.end(), t0,
-                                  [](double t, const WheelSample& s) { return t < s.utime; });
-    if (first != samples.begin()) --first;
-    auto last = std::lower_bound(samples.begin(), samples.end(), t1,
-                                 [](const WheelSample& s, double t) { return s.utime < t; });
-    if (last == samples.end()) --last;
-    std::vector<WheelSample> span(first, last + 1);
-    std::vector<double> times;
-    for (const WheelSample& s : span) times.push_back((s.utime - m.utime_start) * 1e-6);
-    Interval it;
-    it.motion = &m;
-    it.heldout = k >= num_fit;
-    it.cost = std::make_unique<IntervalCost>(robot.drive, num_wheels, std::move(times), std::move(span),
-                                             (m.utime_end - m.utime_start) * 1e-6, m.delta,
-                                             SqrtInformation(m.covariance));
-    it.function.reset(num_params == 3 ? MakeFunction<3>(it.cost.get()) : MakeFunction<5>(it.cost.get()));
-    if (!it.heldout) closed_form_input.push_back({wheels.Increments(m.utime_start, m.utime_end), m.delta});
-    intervals.push_back(std::move(it));
+    intervals.push_back(MakeInterval(robot.drive, num_params, wheels, m, margin_us, k >= num_fit));
+    if (k < num_fit) closed_form_input.push_back({wheels.Increments(m.utime_start, m.utime_end), m.delta});
   }
 
   // 1. Closed-form first estimate; the nominal values where it is not available or implausible.
-  State nominal;
-  for (int i = 0; i < num_params; ++i) nominal.params[i] = robot.params.at(result.param_names[i]);
-  if (nominal_mount) {
-    nominal.mount[0] = nominal_mount->x;
-    nominal.mount[1] = nominal_mount->y;
-    nominal.mount[2] = nominal_mount->yaw;
-  }
+  const State nominal = StateOf(robot, source);
   State state = nominal;
   const ClosedFormEstimate cf = ClosedFormCalibration(robot.drive, robot.params, closed_form_input);
   if (cf.ok) {
@@ -547,6 +573,17 @@ CalibrationResult Calibrate(const RobotDescription& robot, const WheelTrack& whe
     result.heldout = h;
   }
   return result;
+}
+
+OdometryError EvaluateOdometry(const RobotDescription& robot, MotionSource source,
+                               const WheelTrack& wheels, const std::vector<SensorMotion>& motions,
+                               double window_s) {
+  ResidualSummary ignored;
+  const int num_params = static_cast<int>(ParamNames(robot.drive).size());
+  std::vector<Interval> intervals;
+  for (const SensorMotion* m : UsableMotions(wheels, motions, 0.0, &ignored))
+    intervals.push_back(MakeInterval(robot.drive, num_params, wheels, *m, 0.0, true /* heldout */));
+  return HeldoutOdometry(intervals, StateOf(robot, source), window_s, true /* keep_partial */);
 }
 
 RobotDescription Calibrated(const RobotDescription& robot, const CalibrationResult& result) {

@@ -616,6 +616,32 @@ void AddStraightSteered(std::vector<TrajectorySegment>* out, size_t roles, doubl
   }
 }
 
+// Normal work rather than excitation (recalibration during operation, docs/recalibration.md):
+// pallet runs from a dock at the start to four racks, north-east, south-east (driving out
+// forward), north-west and south-west (driving out in reverse): straight 2 m, a 90-degree
+// corner, 2.5 m down the rack aisle, a stop to pick up, then the same way back, which retraces
+// the way out, so `laps` rounds keep the robot on its route without any feedback.
+void AddRoute(std::vector<TrajectorySegment>* out, const Limits& lim, int laps) {
+  const double a = ArcAngles(lim, {0.7})[0];
+  const double v = lim.max_speed;
+  for (int lap = 1; lap <= laps; ++lap) {
+    for (const char* rack : {"north-east", "south-east", "north-west", "south-west"}) {
+      const double way = rack[6] == 'e' ? 1.0 : -1.0;              // forward out to the east
+      const double side = rack[0] == 'n' ? 1.0 : -1.0;  // steering that reaches the rack, either way
+      const std::string run = Fmt("lap %.0f, ", lap) + "rack " + rack + ": ";
+      for (double dir : {way, -way}) {
+        const std::string how = dir > 0 ? "forward " : "reverse ";
+        std::vector<TrajectorySegment> legs{
+            Seg(run + how + "2.0 m", dir * v, 0.0, {0.0}, 2.0, 0.0),
+            Seg(run + how + "corner 90 deg", dir * v, 0.0, {side * a}, 0.0, M_PI / 2),
+            Seg(run + how + "aisle 2.5 m", dir * v, 0.0, {0.0}, 2.5, 0.0, 2.0 /* pick-up */)};
+        if (dir != way) std::reverse(legs.begin(), legs.end());
+        out->insert(out->end(), legs.begin(), legs.end());
+      }
+    }
+  }
+}
+
 Trajectory MakeTricycle(const Limits& lim, const std::string& name) {
   Trajectory t;
   t.name = name;
@@ -635,6 +661,8 @@ Trajectory MakeTricycle(const Limits& lim, const std::string& name) {
   } else if (name == "straight") {
     AddStraightSteered(&s, 1, lim.max_speed, 3.0);
     AddStraightSteered(&s, 1, 0.5 * lim.max_speed, 3.0);
+  } else if (name == "route") {
+    AddRoute(&s, lim, 3);
   }
   return t;
 }
@@ -717,7 +745,7 @@ std::vector<std::string> TrajectoryNames(DriveType type) {
     case DriveType::kDifferential:
       return {"default", "umbmark", "turns", "figure8", "demo", "straight", "imu"};
     case DriveType::kTricycle:
-      return {"default", "demo", "straight"};
+      return {"default", "demo", "straight", "route"};
     case DriveType::kDualSteer:
       return {"default", "three_segment", "demo", "straight"};
   }

@@ -50,21 +50,19 @@ MotionSource ChooseMotionSource(const RobotDescription& robot, const std::string
   return MotionSource::kPose;
 }
 
-CalibrationData ReadCalibrationData(const RobotDescription& robot, const std::string& log_path,
-                                    MotionSource source,
-                                    const std::function<void(const std::string&)>& progress) {
-  CalibrationData data(robot);
+void ReadCalibrationStream(const RobotDescription& robot, const std::string& log_path,
+                           bool match_scans, const CalibrationStreamHandlers& handlers) {
   const std::string pose_channel = robot.pose ? robot.pose->channel : kPoseChannel;
   const std::string scan_channel = robot.lidar2d ? robot.lidar2d->channel : kScanChannel;
   const std::string imu_channel = robot.imu ? robot.imu->channel : kImuChannel;
   std::optional<ScanMatchPipeline> matcher;
-  if (source == MotionSource::kLidar2d) matcher.emplace(robot);
+  if (match_scans) matcher.emplace(robot);
   auto take_matches = [&]() {
-    for (const SensorMotion& m : matcher->TakeResults()) data.AddMotion(m);
+    for (const SensorMotion& m : matcher->TakeResults())
+      if (handlers.motion) handlers.motion(m);
   };
   LogReader reader(log_path);
   LogEvent event;
-  int64_t count = 0;
   while (reader.Next(&event)) {
     const int size = static_cast<int>(event.data.size());
     if (event.channel == kWheelsChannel) {
@@ -73,7 +71,7 @@ CalibrationData ReadCalibrationData(const RobotDescription& robot, const std::st
         throw InputError(log_path, EventPlace(event), "does not decode as wheel_state_t");
       const std::string origin = log_path + ": " + EventPlace(event);
       const WheelSample sample = WheelSampleFromMessage(m, robot, origin);
-      data.AddWheels(sample);
+      if (handlers.wheels) handlers.wheels(sample);
       if (matcher) {
         matcher->AddWheels(sample);
         take_matches();
@@ -84,21 +82,18 @@ CalibrationData ReadCalibrationData(const RobotDescription& robot, const std::st
         throw InputError(log_path, EventPlace(event), "does not decode as laser_scan_t");
       matcher->AddScan(LaserScanFromMessage(m, log_path + ": " + EventPlace(event)));
       take_matches();
-    } else if (source == MotionSource::kImu && event.channel == imu_channel) {
+    } else if (handlers.imu && event.channel == imu_channel) {
       agvcal::imu_t m;
       if (!Decode(event.data.data(), size, &m))
         throw InputError(log_path, EventPlace(event), "does not decode as imu_t");
-      data.AddImu(m, log_path + ": " + EventPlace(event));
-    } else if (source == MotionSource::kPose && event.channel == pose_channel) {
+      handlers.imu(m, log_path + ": " + EventPlace(event));
+    } else if (handlers.pose && event.channel == pose_channel) {
       agvcal::pose2d_t m;
       if (!Decode(event.data.data(), size, &m))
         throw InputError(log_path, EventPlace(event), "does not decode as pose2d_t");
-      data.AddPose(m);
+      handlers.pose(m);
     }
-    if (progress && ++count % 100000 == 0) {
-      progress("read " + std::to_string(count) + " messages, " + std::to_string(data.motions().size()) +
-               " motions");
-    }
+    if (handlers.event) handlers.event();
   }
   if (matcher) {
     matcher->Finish();
@@ -111,6 +106,27 @@ CalibrationData ReadCalibrationData(const RobotDescription& robot, const std::st
                " degenerate)");
     }
   }
+}
+
+CalibrationData ReadCalibrationData(const RobotDescription& robot, const std::string& log_path,
+                                    MotionSource source,
+                                    const std::function<void(const std::string&)>& progress) {
+  CalibrationData data(robot);
+  CalibrationStreamHandlers handlers;
+  handlers.wheels = [&](const WheelSample& sample) { data.AddWheels(sample); };
+  handlers.motion = [&](const SensorMotion& m) { data.AddMotion(m); };
+  if (source == MotionSource::kPose) handlers.pose = [&](const agvcal::pose2d_t& m) { data.AddPose(m); };
+  if (source == MotionSource::kImu) {
+    handlers.imu = [&](const agvcal::imu_t& m, const std::string& origin) { data.AddImu(m, origin); };
+  }
+  int64_t count = 0;
+  handlers.event = [&]() {
+    if (progress && ++count % 100000 == 0) {
+      progress("read " + std::to_string(count) + " messages, " + std::to_string(data.motions().size()) +
+               " motions");
+    }
+  };
+  ReadCalibrationStream(robot, log_path, source == MotionSource::kLidar2d, handlers);
   return data;
 }
 

@@ -20,6 +20,8 @@ Commands:
                               3D lidar height, pitch and roll above the floor
   fuse ROBOT.yaml LOG         wheel odometry fused with the gyro (docs/imu.md)
   stop [--release]            the operator's stop on the bus: the commander holds the robot
+  recal ROBOT.yaml LOG --config RECAL.yaml
+                              recalibration during normal operation, on a recording
 Run 'agvcal COMMAND --help' for a command's options.
 
 Exit status: 0 success, 2 unusable input (names the file, place and problem),
@@ -39,6 +41,7 @@ int Run(int argc, char** argv) {
       {"ground", agvcal_cli::Ground},
       {"fuse", agvcal_cli::Fuse},
       {"stop", agvcal_cli::Stop},
+      {"recal", agvcal_cli::Recal},
   };
   const auto it = kCommands.find(argv[1]);
   if (it == kCommands.end())

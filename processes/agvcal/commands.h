@@ -11,5 +11,6 @@ int Import(int argc, char** argv);
 int Ground(int argc, char** argv);
 int Fuse(int argc, char** argv);
 int Stop(int argc, char** argv);
+int Recal(int argc, char** argv);
 
 }  // namespace agvcal_cli

@@ -163,4 +163,11 @@ std::optional<int> CheckUsage(const Args& args, const char* usage, size_t positi
   return std::nullopt;
 }
 
+calib::MotionSource MotionSourceOption(const Args& args, const calib::RobotDescription& robot) {
+  const std::string name = args.Get("--source", robot.lidar2d ? "lidar2d" : "pose");
+  if (name != "lidar2d" && name != "pose")
+    throw calib::InputError("command line", "--source", "expected lidar2d or pose, got '" + name + "'");
+  return name == "pose" ? calib::MotionSource::kPose : calib::MotionSource::kLidar2d;
+}
+
 }  // namespace agvcal_process

@@ -14,7 +14,9 @@
 #include <vector>
 
 #include "calib/catch_up.h"
+#include "calib/calibration.h"
 #include "calib/recording.h"
+#include "calib/robot.h"
 
 namespace agvcal_process {
 
@@ -106,5 +108,9 @@ Args ParseArgs(int argc, char** argv, int first, const std::vector<std::string>&
 // arguments (usage on stderr, exit 2): the exit status to return at once, or
 // nothing to go on.
 std::optional<int> CheckUsage(const Args& args, const char* usage, size_t positional_count);
+
+// The --source option (lidar2d or pose): the sensor whose motion calibrates; by default the
+// robot file's 2D lidar if it has one, else its external pose source. InputError otherwise.
+calib::MotionSource MotionSourceOption(const Args& args, const calib::RobotDescription& robot);
 
 }  // namespace agvcal_process

@@ -155,11 +155,7 @@ int Run(int argc, char** argv) {
                               {"--time-offset"});
   if (const auto status = CheckUsage(args, kUsage, 1)) return *status;
   const calib::RobotDescription robot = calib::LoadRobotFile(args.positional[0]);
-  const std::string source_name = args.Get("--source", robot.lidar2d ? "lidar2d" : "pose");
-  if (source_name != "lidar2d" && source_name != "pose")
-    throw calib::InputError("command line", "--source", "expected lidar2d or pose, got '" + source_name + "'");
-  const calib::MotionSource source =
-      source_name == "pose" ? calib::MotionSource::kPose : calib::MotionSource::kLidar2d;
+  const calib::MotionSource source = MotionSourceOption(args, robot);
   const double every = args.GetDouble("--every", 200);
   if (!(every >= 1)) throw calib::InputError("command line", "--every", "must be >= 1");
   calib::CalibrationOptions options;

@@ -9,4 +9,8 @@ namespace calib {
 // Throws InputError naming `path` if it cannot be written; PATH is then untouched.
 void WriteFileAtomically(const std::string& path, const std::string& text);
 
+// Appends `text` to PATH (created if missing) through WriteFileAtomically: a reader sees the
+// file with all of `text` or none of it (for logs of a few hundred lines; the file is rewritten).
+void AppendFileAtomically(const std::string& path, const std::string& text);
+
 }  // namespace calib

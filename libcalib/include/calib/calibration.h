@@ -123,6 +123,14 @@ CalibrationResult Calibrate(const RobotDescription& robot, const WheelTrack& whe
                             const std::vector<SensorMotion>& motions, MotionSource source,
                             const CalibrationOptions& options, const std::string& origin);
 
+// The odometry error of the robot description's model (its drive parameters and the mount of
+// `source`) against the measured sensor motions, chained over windows of `window_s` as in the
+// held-out comparison, except that a window cut short by a gap or the end counts too. Motions
+// that are invalid, degenerate or not covered by `wheels` are left out.
+OdometryError EvaluateOdometry(const RobotDescription& robot, MotionSource source,
+                               const WheelTrack& wheels, const std::vector<SensorMotion>& motions,
+                               double window_s);
+
 // The robot description with the calibrated values in place of the nominal ones.
 RobotDescription Calibrated(const RobotDescription& robot, const CalibrationResult& result);
 

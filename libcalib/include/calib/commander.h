@@ -21,7 +21,12 @@
 //   tricycle: "default" (about 3.2 min): arcs at true steering angles of
 //     +-0.2, +-0.4, +-0.7, +-1.0 rad (scaled down when max_steer is smaller),
 //     each driven 3 m forward then back along the same arc in reverse, and
-//     straight runs forward and back, so the robot stays near its start.
+//     straight runs forward and back, so the robot stays near its start;
+//     "route" (about 9 min): normal work, not excitation: three laps of
+//     pallet runs from the start to four racks (out forward to the
+//     north-east and south-east, in reverse to the north-west and
+//     south-west: 2 m, a 90-degree corner at 0.7 rad steering, 2.5 m of
+//     aisle, a stop, and the same way back).
 //   dual_steer: "default" (about 3.8 min): the three-segment run (a1 steered
 //     one way, straight, the other way; a2 held at zero; 1.8 m of a1 travel
 //     each) at two angles and in both mirror images, each driven back in

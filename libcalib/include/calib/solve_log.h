@@ -29,6 +29,21 @@ struct SolveLogOptions {
 MotionSource ChooseMotionSource(const RobotDescription& robot, const std::string& log_path,
                                 std::optional<MotionSource> requested);
 
+// Receivers of ReadCalibrationStream; an empty one is skipped.
+struct CalibrationStreamHandlers {
+  std::function<void(const WheelSample&)> wheels;
+  std::function<void(const SensorMotion&)> motion;      // scan matches
+  std::function<void(const agvcal::pose2d_t&)> pose;    // the external pose source's channel
+  std::function<void(const agvcal::imu_t&, const std::string& origin)> imu;  // the robot's IMU channel
+  std::function<void()> event;                          // after every event of the log
+};
+
+// Feeds the log's WHEELS, scan matches (when `match_scans`: the robot file's 2D lidar channel
+// through ScanMatchPipeline, as the live scan matcher), POSE and IMU to `handlers`, in log order.
+// Throws InputError naming the log and the event for a message that does not decode.
+void ReadCalibrationStream(const RobotDescription& robot, const std::string& log_path,
+                           bool match_scans, const CalibrationStreamHandlers& handlers);
+
 // Reads WHEELS and the sensor's channel from the log; scans are scan-matched.
 CalibrationData ReadCalibrationData(const RobotDescription& robot, const std::string& log_path,
                                     MotionSource source,

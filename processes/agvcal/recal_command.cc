@@ -1,0 +1,53 @@
+#include <cstdio>
+#include <iostream>
+
+#include "calib/errors.h"
+#include "calib/recalibration.h"
+#include "commands.h"
+#include "common/process_util.h"
+
+namespace agvcal_cli {
+
+namespace {
+const char* kUsage = R"(usage: agvcal recal ROBOT.yaml LOG --config RECAL.yaml [--out-robot CAL.yaml]
+                    [--decisions DECISIONS.jsonl] [--source lidar2d|pose]
+
+Recalibration during normal operation, on a recording: what agvcal-recal does
+live, with the same decisions. Segments of the route (zones of the config in the
+POSE frame, or odometry distance windows) are collected; every `decision.segments`
+of them the robot is calibrated on some and the result compared with the
+calibration in use on the others; it is accepted only when significantly better
+there and consistent with the calibration in use (docs/recalibration.md).
+  --config RECAL.yaml      zones or distance windows, decision levels, prior uncertainties
+  --out-robot CAL.yaml     the accepted calibration, as a robot file (written atomically);
+                           when it exists, the calibration in use starts from it
+  --decisions FILE         every decision appended as a JSON line (atomically)
+  --source lidar2d|pose    the sensor whose motion calibrates (default lidar2d if the robot
+                           file has one, else pose)
+Prints one line per decision. Exit status: 0 done (whatever was decided); 2 unusable
+input (robot file, config, log).
+)";
+}  // namespace
+
+int Recal(int argc, char** argv) {
+  const auto args = agvcal_process::ParseArgs(argc, argv, 2, {"--config", "--out-robot", "--decisions", "--source"}, {});
+  if (const auto status = agvcal_process::CheckUsage(args, kUsage, 2)) return *status;
+  if (!args.Has("--config")) throw calib::InputError("command line", "--config", "missing (the recalibration config)");
+  const calib::RobotDescription robot = calib::LoadRobotFile(args.positional[0]);
+  const calib::RecalConfig config = calib::LoadRecalConfig(args.Get("--config", ""));
+  const calib::MotionSource source = agvcal_process::MotionSourceOption(args, robot);
+  const std::string robot_out = args.Get("--out-robot", ""), decisions = args.Get("--decisions", "");
+  const calib::CalibrationInUse start = calib::StartingCalibration(robot, robot_out, source, config);
+  std::printf("calibration in use: %s\n", start.origin.c_str());
+  const calib::RecalRun run = calib::RecalibrateLog(
+      robot, start, args.positional[1], source, config, [&](const calib::RecalDecision& d) {
+        calib::RecordDecision(d, robot_out, decisions);
+        std::printf("decision %d: %s: %s\n", d.number, calib::VerdictName(d.verdict), d.reason.c_str());
+        std::fflush(stdout);
+      });
+  std::printf("%d segments (%d dropped as too short, %d waiting for a decision), %zu decisions\n",
+              run.segments, run.dropped, run.waiting, run.decisions.size());
+  return calib::kExitOk;
+}
+
+}  // namespace agvcal_cli
