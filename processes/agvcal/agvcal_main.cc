@@ -18,6 +18,7 @@ Commands:
   import FORMAT INPUT OUT.log turn a dataset (carmen, mines, lego, optiodom, pose-csv) into a recording
   ground ROBOT.yaml LOG|CLOUD_FILE [--out RESULT.json]
                               3D lidar height, pitch and roll above the floor
+  diagnose ROBOT.yaml LOG     name the physics the calibrated model leaves out, and prove the fix
 Run 'agvcal COMMAND --help' for a command's options.
 
 Exit status: 0 success, 2 unusable input (names the file, place and problem),
@@ -35,6 +36,7 @@ int Run(int argc, char** argv) {
       {"solve", agvcal_cli::Solve},
       {"import", agvcal_cli::Import},
       {"ground", agvcal_cli::Ground},
+      {"diagnose", agvcal_cli::Diagnose},
   };
   const auto it = kCommands.find(argv[1]);
   if (it == kCommands.end())

@@ -9,5 +9,6 @@ int Info(int argc, char** argv);
 int Solve(int argc, char** argv);
 int Import(int argc, char** argv);
 int Ground(int argc, char** argv);
+int Diagnose(int argc, char** argv);
 
 }  // namespace agvcal_cli
