@@ -2,6 +2,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <map>
 #include <memory>
 #include <numeric>
 #include <sstream>
@@ -10,6 +11,7 @@
 #include <ceres/ceres.h>
 
 #include "calib/errors.h"
+#include "calib/laser_scan.h"
 #include "calib/messages.h"
 #include "calib/recording.h"
 #include "calib/solve_log.h"
@@ -183,12 +185,23 @@ class Diagnoser {
     if (options_.progress) options_.progress(line);
   }
   void BuildIntervals();
+  Eigen::Vector3d SpreadDerivative(const SensorMotion* m,
+                                   const std::map<std::pair<int64_t, int64_t>, const SensorMotion*>& spread) const;
+  void Gate(const Model& m);
+  DiagnoseReport Select(const Model& start, const CalibrationResult& cal);
   Fit FitModel(const Model& start, const std::vector<int>& free, const std::vector<int>& tested) const;
   std::vector<Candidate> Candidates() const;
   void Conditions(DiagnoseReport* report) const;
   FoundEffect Describe(const Candidate& c, const Fit& final_fit, const Fit& without,
                        const DiagnoseReport& report) const;
   double Regressor(const std::string& name, const DiagnosedInterval& d, const Interval& it) const;
+  struct Localized {
+    int comp = 0;
+    std::vector<bool> flagged;  // per interval: the effect's contribution stands out
+    double rms_before = 0, rms_after = 0, rms_all_before = 0, rms_all_after = 0;  // held-out
+    double span_gain() const { return rms_before > 0 ? 1.0 - rms_after / rms_before : 0.0; }
+  };
+  Localized Localize(const Candidate& c, const Model& with, const Model& without) const;
   void FindUnexplained(DiagnoseReport* report) const;
 
   const RobotDescription& robot_;
@@ -200,8 +213,21 @@ class Diagnoser {
   std::vector<int> constant_params_;
   int num_params_ = 0;
   double s2_ = 1.0;  // variance factor of the baseline fit
-  Model baseline_;
+  Model baseline_, final_;
+  std::vector<std::string> notes_;
+  int m_odo_ = 0, m_act_ = 0;
 };
+
+// d(measured motion)/d(scan period): the same interval matched with beams spread over
+// the scan period, minus the plain match, per second of period (zero when unmatched).
+Eigen::Vector3d Diagnoser::SpreadDerivative(
+    const SensorMotion* m, const std::map<std::pair<int64_t, int64_t>, const SensorMotion*>& spread) const {
+  const auto it = spread.find({m->utime_start, m->utime_end});
+  if (it == spread.end() || !(data_.scan_period_s > 0)) return Eigen::Vector3d::Zero();
+  const Pose2& a = m->delta;
+  const Pose2& b = it->second->delta;
+  return Eigen::Vector3d(b.x - a.x, b.y - a.y, WrapAngle(b.theta - a.theta)) / data_.scan_period_s;
+}
 
 void Diagnoser::BuildIntervals() {
   track_ = MakeTrack(robot_, data_.wheels);
@@ -218,6 +244,9 @@ void Diagnoser::BuildIntervals() {
     throw InputError(origin_, "sensor motions",
                      "only " + std::to_string(usable.size()) +
                          " usable intervals with encoder data; the diagnosis needs at least 40");
+  std::map<std::pair<int64_t, int64_t>, const SensorMotion*> spread;
+  for (const SensorMotion& m : data_.motions_spread)
+    if (m.valid) spread[{m.utime_start, m.utime_end}] = &m;
   const int64_t t_first = usable.front()->utime_start;
   const auto& ut = track_.utime;
   for (const SensorMotion* m : usable) {
@@ -233,7 +262,7 @@ void Diagnoser::BuildIntervals() {
     it.model = std::make_unique<IntervalModel>(
         &track_, first, last, m->utime_start, (m->utime_end - m->utime_start) * 1e-6,
         Eigen::Vector3d(m->delta.x, m->delta.y, m->delta.theta), SqrtInformation(m->covariance),
-        Eigen::Vector3d::Zero());
+        SpreadDerivative(m, spread));
     it.function = std::make_unique<ceres::AutoDiffCostFunction<IntervalModel, 3, 5, 3, kNumBeta>>(
         it.model.get(), ceres::DO_NOT_TAKE_OWNERSHIP);
     intervals_.push_back(std::move(it));
@@ -370,6 +399,10 @@ std::vector<Candidate> Diagnoser::Candidates() const {
     out.push_back({"travel_direction_offset", "odometry", "", {kTravelOffset}, {"offset_rad"}, 0.05,
                    "the same path forward and in reverse", "travel_direction", false});
   }
+  if (data_.scan_period_s > 0) {
+    out.push_back({"scan_distortion", "sensing", "", {kDistortion}, {"scan_period_s"}, 0.2,
+                   "fast turns in place and fast straights", "turn_rate", true});
+  }
   const auto& roles = WheelRoles(robot_.drive);
   for (std::size_t w = 0; w < roles.size(); ++w) {
     out.push_back({"wheel_eccentricity", "odometry", roles[w],
@@ -439,6 +472,7 @@ double Diagnoser::Regressor(const std::string& name, const DiagnosedInterval& d,
     return std::fmod(std::fmod(track_.pos[mid][w], 2 * M_PI) + 2 * M_PI, 2 * M_PI);
   }
   if (name == "speed") return c.speed;
+  if (name == "turn_rate") return c.turn_rate;
   return 0.0;
 }
 
@@ -521,6 +555,47 @@ std::string Regime(const std::vector<DiagnosedInterval>& all, const std::vector<
   return out;
 }
 
+// Where the effect's contribution stands out (over 2 sigma of the noise, or the top
+// tenth when nothing does alone), in the component it shows most, and the held-out
+// residual there without and with it.
+Diagnoser::Localized Diagnoser::Localize(const Candidate& c, const Model& with, const Model& without) const {
+  Localized out;
+  Model zeroed = with;
+  for (int b : c.beta) zeroed.beta[b] = 0.0;
+  const double s = std::sqrt(s2_);
+  std::vector<Eigen::Vector3d> contribution(intervals_.size(), Eigen::Vector3d::Zero());
+  Eigen::Vector3d weight = Eigen::Vector3d::Zero();
+  for (std::size_t k = 0; k < intervals_.size(); ++k) {
+    if (intervals_[k].outlier) continue;
+    contribution[k] = ErrorOf(intervals_[k], zeroed) - ErrorOf(intervals_[k], with);
+    weight += contribution[k].cwiseQuotient(intervals_[k].sigma * s).cwiseAbs2();
+  }
+  weight.maxCoeff(&out.comp);
+  std::vector<double> ratio(intervals_.size(), 0.0);
+  for (std::size_t k = 0; k < intervals_.size(); ++k)
+    if (!intervals_[k].outlier) ratio[k] = std::abs(contribution[k][out.comp]) / (intervals_[k].sigma[out.comp] * s);
+  double threshold = 2.0;
+  if (std::count_if(ratio.begin(), ratio.end(), [](double r) { return r > 2.0; }) < 3) {
+    std::vector<double> sorted = ratio;
+    std::sort(sorted.begin(), sorted.end());
+    threshold = sorted[sorted.size() * 9 / 10];
+  }
+  out.flagged.assign(intervals_.size(), false);
+  std::vector<double> in_before, in_after, all_before, all_after;
+  for (std::size_t k = 0; k < intervals_.size(); ++k) {
+    const Interval& it = intervals_[k];
+    if (it.outlier) continue;
+    out.flagged[k] = ratio[k] >= threshold && ratio[k] > 0;
+    if (!it.heldout) continue;
+    const double eb = ErrorOf(it, without)[out.comp], ea = ErrorOf(it, with)[out.comp];
+    all_before.push_back(eb), all_after.push_back(ea);
+    if (out.flagged[k]) in_before.push_back(eb), in_after.push_back(ea);
+  }
+  out.rms_before = Rms(in_before), out.rms_after = Rms(in_after);
+  out.rms_all_before = Rms(all_before), out.rms_all_after = Rms(all_after);
+  return out;
+}
+
 FoundEffect Diagnoser::Describe(const Candidate& c, const Fit& final_fit, const Fit& without,
                                 const DiagnoseReport& report) const {
   FoundEffect fe;
@@ -544,60 +619,32 @@ FoundEffect Diagnoser::Describe(const Candidate& c, const Fit& final_fit, const 
     const int i = index_of(c.beta[0]);
     fe.params[c.keys[0]] = {final_fit.m.beta[c.beta[0]], std::sqrt(std::max(final_fit.cov(i, i), 0.0))};
   }
-  // The effect's contribution to the prediction, per interval.
-  Model zeroed = final_fit.m;
-  for (int b : c.beta) zeroed.beta[b] = 0.0;
-  const double s = std::sqrt(s2_);
-  std::vector<Eigen::Vector3d> contribution(intervals_.size());
-  Eigen::Vector3d weight = Eigen::Vector3d::Zero();
-  for (std::size_t k = 0; k < intervals_.size(); ++k) {
-    if (intervals_[k].outlier) continue;
-    contribution[k] = ErrorOf(intervals_[k], zeroed) - ErrorOf(intervals_[k], final_fit.m);
-    weight += contribution[k].cwiseQuotient(intervals_[k].sigma * s).cwiseAbs2();
-  }
-  int comp = 0;
-  weight.maxCoeff(&comp);
+  const Localized loc = Localize(c, final_fit.m, without.m);
+  const int comp = loc.comp;
   fe.component = kComponents[comp];
-  std::vector<double> ratio(intervals_.size(), 0.0);
-  for (std::size_t k = 0; k < intervals_.size(); ++k)
-    if (!intervals_[k].outlier) ratio[k] = std::abs(contribution[k][comp]) / (intervals_[k].sigma[comp] * s);
-  double threshold = 2.0;
-  if (std::count_if(ratio.begin(), ratio.end(), [](double r) { return r > 2.0; }) < 3) {
-    std::vector<double> sorted = ratio;
-    std::sort(sorted.begin(), sorted.end());
-    threshold = sorted[sorted.size() * 9 / 10];  // the top tenth where nothing stands out alone
-  }
   std::vector<TimeSpan> flagged_spans;
-  std::vector<bool> flagged(report.intervals.size(), false);
-  std::vector<double> in_before, in_after, all_before, all_after, x, sb, sa;
+  std::vector<double> x, sb, sa;
+  std::string reg = c.regressor;
+  if (c.name == "time_offset" && comp == 2) reg = "turn_accel";
+  fe.regressor = reg;
   for (std::size_t k = 0; k < intervals_.size(); ++k) {
     const Interval& it = intervals_[k];
     if (it.outlier) continue;
-    const bool f = ratio[k] >= threshold && ratio[k] > 0;
-    flagged[k] = f;
-    if (f) flagged_spans.push_back({it.motion->utime_start, it.motion->utime_end});
-    const double eb = ErrorOf(it, without.m)[comp], ea = ErrorOf(it, final_fit.m)[comp];
-    if (it.heldout) {
-      all_before.push_back(eb), all_after.push_back(ea);
-      if (f) in_before.push_back(eb), in_after.push_back(ea);
-    }
-    std::string reg = c.regressor;
-    if (c.name == "time_offset" && comp == 2) reg = "turn_accel";
-    fe.regressor = reg;
+    if (loc.flagged[k]) flagged_spans.push_back({it.motion->utime_start, it.motion->utime_end});
     x.push_back(Regressor(reg, report.intervals[k], it));
-    sb.push_back(eb);
-    sa.push_back(ea);
+    sb.push_back(ErrorOf(it, without.m)[comp]);
+    sa.push_back(ErrorOf(it, final_fit.m)[comp]);
   }
   fe.where = MergeSpans(flagged_spans, 2000000);
-  fe.heldout_rms_before = Rms(in_before);
-  fe.heldout_rms_after = Rms(in_after);
-  fe.heldout_rms_all_before = Rms(all_before);
-  fe.heldout_rms_all_after = Rms(all_after);
+  fe.heldout_rms_before = loc.rms_before;
+  fe.heldout_rms_after = loc.rms_after;
+  fe.heldout_rms_all_before = loc.rms_all_before;
+  fe.heldout_rms_all_after = loc.rms_all_after;
   fe.signature = Signature(x, sb, sa);
   std::vector<DiagnosedInterval> kept;
   std::vector<bool> kept_flag;
   for (std::size_t k = 0; k < intervals_.size(); ++k)
-    if (!intervals_[k].outlier) kept.push_back(report.intervals[k]), kept_flag.push_back(flagged[k]);
+    if (!intervals_[k].outlier) kept.push_back(report.intervals[k]), kept_flag.push_back(loc.flagged[k]);
   fe.regime = Regime(kept, kept_flag);
   return fe;
 }
@@ -684,11 +731,8 @@ const PairInfo kConfusable[] = {
 };
 
 DiagnoseReport Diagnoser::Run() {
-  DiagnoseReport report;
-  report.drive = robot_.drive;
-  report.source = data_.source;
-  report.param_names = ParamNames(robot_.drive);
-  num_params_ = static_cast<int>(report.param_names.size());
+  const std::vector<std::string>& names = ParamNames(robot_.drive);
+  num_params_ = static_cast<int>(names.size());
   BuildIntervals();
 
   // Starting values: the calibration of calibration.h on everything (it is only a start).
@@ -697,11 +741,11 @@ DiagnoseReport Diagnoser::Run() {
   const CalibrationResult cal = Calibrate(robot_, data_.wheels, data_.motions, data_.source, co, origin_);
   Model start;
   for (int i = 0; i < num_params_; ++i) {
-    start.params[i] = cal.params.at(report.param_names[i]).value;
-    if (!std::isfinite(cal.params.at(report.param_names[i]).std)) {
+    start.params[i] = cal.params.at(names[i]).value;
+    if (!std::isfinite(cal.params.at(names[i]).std)) {
       constant_params_.push_back(i);
-      start.params[i] = robot_.params.at(report.param_names[i]);
-      report.notes.push_back(report.param_names[i] + " is not determined by this recording: held at nominal");
+      start.params[i] = robot_.params.at(names[i]);
+      notes_.push_back(names[i] + " is not determined by this recording: held at nominal");
     }
   }
   for (int i = num_params_; i < 5; ++i) constant_params_.push_back(i);
@@ -709,18 +753,46 @@ DiagnoseReport Diagnoser::Run() {
   start.mount[1] = cal.mount_y.value;
   start.mount[2] = cal.mount_yaw.value;
 
-  // Baseline: the calibrated model on the fit blocks; outliers gated at its robust scale.
+  // Outliers are gated at the robust scale of the baseline; once the effects are known,
+  // again with them (a strong effect must not hide its own evidence), and the selection rerun.
   Progress("baseline calibration on " + std::to_string(intervals_.size()) + " intervals");
   s2_ = 1.0;
-  Fit f0 = FitModel(start, {}, {});
-  {
-    std::vector<double> chi2;
-    for (const Interval& it : intervals_)
-      if (!it.heldout) chi2.push_back(Chi2Of(it, f0.m));
-    std::nth_element(chi2.begin(), chi2.begin() + chi2.size() / 2, chi2.end());
-    const double scale2 = std::max(chi2[chi2.size() / 2] / kChi2Median3, 1e-12);
-    for (Interval& it : intervals_) it.outlier = Chi2Of(it, f0.m) / scale2 > kOutlierChi2;
+  Gate(FitModel(start, {}, {}).m);
+  DiagnoseReport report = Select(start, cal);
+  std::vector<bool> before_gate;
+  for (const Interval& it : intervals_) before_gate.push_back(it.outlier);
+  s2_ = 1.0;
+  Gate(final_);
+  bool changed = false;
+  for (std::size_t k = 0; k < intervals_.size(); ++k) changed = changed || before_gate[k] != intervals_[k].outlier;
+  if (changed) {
+    Progress("outliers re-gated with the effects found; selecting again");
+    report = Select(start, cal);
   }
+  DiagnoseActuation(robot_, data_, options_, options_.alpha * m_act_ / double(m_odo_ + m_act_), &report);
+  FindUnexplained(&report);
+  report.verdict = report.effects.empty() ? "no_significant_effect" : "effects_found";
+  return report;
+}
+
+void Diagnoser::Gate(const Model& m) {
+  std::vector<double> chi2;
+  for (Interval& it : intervals_) it.outlier = false;
+  for (const Interval& it : intervals_)
+    if (!it.heldout) chi2.push_back(Chi2Of(it, m));
+  std::nth_element(chi2.begin(), chi2.begin() + chi2.size() / 2, chi2.end());
+  const double scale2 = std::max(chi2[chi2.size() / 2] / kChi2Median3, 1e-12);
+  for (Interval& it : intervals_) it.outlier = Chi2Of(it, m) / scale2 > kOutlierChi2;
+}
+
+DiagnoseReport Diagnoser::Select(const Model& start, const CalibrationResult& cal) {
+  DiagnoseReport report;
+  report.drive = robot_.drive;
+  report.source = data_.source;
+  report.param_names = ParamNames(robot_.drive);
+  report.notes = notes_;
+  s2_ = 1.0;
+  Fit f0 = FitModel(start, {}, {});
   f0 = FitModel(f0.m, {}, {});
   const int dof_base = 3 * f0.n_fit - (5 - int(constant_params_.size())) - 3;
   s2_ = f0.chi2_fit / std::max(1, dof_base);
@@ -735,8 +807,8 @@ DiagnoseReport Diagnoser::Run() {
 
   // Every candidate against the baseline.
   const std::vector<Candidate> cands = Candidates();
-  const int m_odo = static_cast<int>(cands.size());
-  const int m_act = ActuationCandidates(robot_, data_);
+  const int m_odo = m_odo_ = static_cast<int>(cands.size());
+  const int m_act = m_act_ = ActuationCandidates(robot_, data_);
   const double alpha_odo = options_.alpha * m_odo / double(m_odo + m_act);
   std::vector<Fit> single;
   std::vector<double> p;
@@ -765,7 +837,8 @@ DiagnoseReport Diagnoser::Run() {
     const double sigma = std::sqrt(std::max(var, 0.0));
     o.estimate = {c.beta.size() == 2 ? std::hypot(f.m.beta[c.beta[0]], f.m.beta[c.beta[1]]) : f.m.beta[c.beta[0]], sigma};
     o.detectable = (NormalUpper(alpha_odo / m_odo / 2) + NormalUpper(0.2)) * sigma;
-    eligible[j] = p_adj[j] < alpha_odo && gain(f0, f) > options_.min_heldout_gain;
+    eligible[j] = p_adj[j] < alpha_odo && gain(f0, f) > options_.min_heldout_gain &&
+                  Localize(c, f.m, f0.m).span_gain() > options_.min_span_gain;
     if (eligible[j]) {
       o.status = "significant";
     } else if (!(o.detectable < c.plausible)) {
@@ -791,7 +864,9 @@ DiagnoseReport Diagnoser::Run() {
       for (int b : cands[j].beta) startm.beta[b] = single[j].m.beta[b];
       Fit f = FitModel(startm, free, cands[j].beta);
       const double level = alpha_odo / double(m_odo - chosen.size());
-      if (f.p < level && gain(current, f) > options_.min_heldout_gain && (best < 0 || f.wald > best_fit.wald)) {
+      if (f.p < level && gain(current, f) > options_.min_heldout_gain &&
+          Localize(cands[j], f.m, current.m).span_gain() > options_.min_span_gain &&
+          (best < 0 || f.wald > best_fit.wald)) {
         best = int(j);
         best_fit = f;
       }
@@ -818,7 +893,8 @@ DiagnoseReport Diagnoser::Run() {
       const Fit without = FitModel(startm, others, {});
       const Fit with = FitModel(current.m, current.free, c.beta);
       const double level = alpha_odo / double(m_odo - chosen.size() + 1);
-      if (with.p < level && gain(without, with) > options_.min_heldout_gain) {
+      if (with.p < level && gain(without, with) > options_.min_heldout_gain &&
+          Localize(c, with.m, without.m).span_gain() > options_.min_span_gain) {
         chosen_p[n] = with.p;
         chosen_wald[n] = with.wald;
         continue;
@@ -926,10 +1002,7 @@ DiagnoseReport Diagnoser::Run() {
     report.refitted[mount + axes[i]] = {current.m.mount[i], mstd[i]->std};
   }
   report.candidates = outcomes;
-
-  DiagnoseActuation(robot_, data_, options_, options_.alpha * m_act / double(m_odo + m_act), &report);
-  FindUnexplained(&report);
-  report.verdict = report.effects.empty() ? "no_significant_effect" : "effects_found";
+  final_ = current.m;
   return report;
 }
 
@@ -945,9 +1018,35 @@ DiagnoseData ReadDiagnoseData(const RobotDescription& robot, const std::string& 
                               const std::function<void(const std::string&)>& progress) {
   DiagnoseData out;
   out.source = ChooseMotionSource(robot, log_path, std::nullopt);
-  const CalibrationData cal = ReadCalibrationData(robot, log_path, out.source, progress);
+  // Beam timing the scans declare: all zero makes scan_distortion testable.
+  int64_t zero_timing = 0, scans = 0;
+  std::vector<int64_t> stamps;
+  double scan_time = 0;
+  const std::string scan_channel = robot.lidar2d ? robot.lidar2d->channel : kScanChannel;
+  auto check_scan = [&](LaserScan* scan) {
+    ++scans;
+    zero_timing += scan->time_increment == 0.0;
+    if (scan->scan_time > 0) scan_time = scan->scan_time;
+    stamps.push_back(scan->utime);
+  };
+  const CalibrationData cal = ReadCalibrationData(robot, log_path, out.source, progress,
+                                                  std::function<void(LaserScan*)>(check_scan));
   out.wheels = cal.wheels();
   out.motions = cal.motions();
+  if (scans > 10 && zero_timing == scans) {
+    if (!(scan_time > 0)) {
+      std::vector<int64_t> gaps;
+      for (std::size_t i = 1; i < stamps.size(); ++i) gaps.push_back(stamps[i] - stamps[i - 1]);
+      std::nth_element(gaps.begin(), gaps.begin() + gaps.size() / 2, gaps.end());
+      scan_time = gaps[gaps.size() / 2] * 1e-6;
+    }
+    out.scan_period_s = scan_time;
+    if (progress) progress("scans declare no beam timing: matching again with beams spread over the scan");
+    const CalibrationData spread = ReadCalibrationData(robot, log_path, out.source, nullptr, [&](LaserScan* scan) {
+      if (scan->size() > 1) scan->time_increment = scan_time / scan->size();
+    });
+    out.motions_spread = spread.motions();
+  }
   LogReader reader(log_path);
   LogEvent event;
   while (reader.Next(&event)) {

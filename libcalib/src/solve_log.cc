@@ -45,6 +45,13 @@ MotionSource ChooseMotionSource(const RobotDescription& robot, const std::string
 CalibrationData ReadCalibrationData(const RobotDescription& robot, const std::string& log_path,
                                     MotionSource source,
                                     const std::function<void(const std::string&)>& progress) {
+  return ReadCalibrationData(robot, log_path, source, progress, nullptr);
+}
+
+CalibrationData ReadCalibrationData(const RobotDescription& robot, const std::string& log_path,
+                                    MotionSource source,
+                                    const std::function<void(const std::string&)>& progress,
+                                    const std::function<void(LaserScan*)>& adjust_scan) {
   CalibrationData data(robot);
   const std::string pose_channel = robot.pose ? robot.pose->channel : kPoseChannel;
   const std::string scan_channel = robot.lidar2d ? robot.lidar2d->channel : kScanChannel;
@@ -73,7 +80,9 @@ CalibrationData ReadCalibrationData(const RobotDescription& robot, const std::st
       agvcal::laser_scan_t m;
       if (!Decode(event.data.data(), size, &m))
         throw InputError(log_path, EventPlace(event), "does not decode as laser_scan_t");
-      matcher->AddScan(LaserScanFromMessage(m, log_path + ": " + EventPlace(event)));
+      LaserScan scan = LaserScanFromMessage(m, log_path + ": " + EventPlace(event));
+      if (adjust_scan) adjust_scan(&scan);
+      matcher->AddScan(scan);
       take_matches();
     } else if (source == MotionSource::kPose && event.channel == pose_channel) {
       agvcal::pose2d_t m;

@@ -42,6 +42,9 @@ struct DiagnoseOptions {
   double block_s = 10.0;     // length of the alternating fit / held-out blocks
   int hac_lags = 4;          // Newey-West lags (neighbouring intervals share a scan)
   double min_heldout_gain = 0.0;  // an effect must lower held-out chi2 by more than this share
+  // ... and the held-out RMS where its contribution stands out by more than this share:
+  // a real effect fits best where it acts most; a look-alike of something else does not.
+  double min_span_gain = 0.1;
   std::function<void(const std::string&)> progress;
 };
 
@@ -51,6 +54,10 @@ struct DiagnoseData {
   std::vector<SensorMotion> motions;
   MotionSource source = MotionSource::kLidar2d;
   std::vector<DriveCommand> commands;  // DRIVE_CMD, in time order (may be empty)
+  // Scans that declare no beam timing (time_increment 0) are matched a second time as if
+  // their beams spread over `scan_period_s`: the first-order effect of scan_distortion.
+  double scan_period_s = 0.0;  // 0: the scans declare their timing (scan_distortion not testable)
+  std::vector<SensorMotion> motions_spread;
 };
 
 // Reads WHEELS, the motion sensor (scan-matched SCAN or POSE) and DRIVE_CMD.

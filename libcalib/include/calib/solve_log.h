@@ -31,6 +31,14 @@ CalibrationData ReadCalibrationData(const RobotDescription& robot, const std::st
                                     MotionSource source,
                                     const std::function<void(const std::string&)>& progress);
 
+// The same, with each scan passed through `adjust_scan` before it is matched
+// (the diagnosis re-matches with other beam timing; may be empty).
+struct LaserScan;
+CalibrationData ReadCalibrationData(const RobotDescription& robot, const std::string& log_path,
+                                    MotionSource source,
+                                    const std::function<void(const std::string&)>& progress,
+                                    const std::function<void(LaserScan*)>& adjust_scan);
+
 CalibrationResult SolveLog(const RobotDescription& robot, const std::string& log_path,
                            const SolveLogOptions& options);
 
