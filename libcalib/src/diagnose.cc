@@ -113,7 +113,7 @@ std::vector<TimeSpan> MergeSpans(std::vector<TimeSpan> flagged, int64_t gap_us) 
 namespace {
 using namespace diag;
 
-constexpr double kOutlierChi2 = 25.0;  // 3 dof, p ~ 2e-5 at the robust scale
+constexpr double kOutlierChi2 = 50.0;  // 3 dof, p ~ 1e-10 at the robust scale: failed matches only
 constexpr double kChi2Median3 = 2.366;
 constexpr double kIndistinguishableCorrelation = 0.9;
 
@@ -214,6 +214,7 @@ class Diagnoser {
   int num_params_ = 0;
   double s2_ = 1.0;  // variance factor of the baseline fit
   Model baseline_, final_;
+  double offset_start_ = 0.0;
   std::vector<std::string> notes_;
   int m_odo_ = 0, m_act_ = 0;
 };
@@ -555,8 +556,8 @@ std::string Regime(const std::vector<DiagnosedInterval>& all, const std::vector<
   return out;
 }
 
-// Where the effect's contribution stands out (over 2 sigma of the noise, or the top
-// tenth when nothing does alone), in the component it shows most, and the held-out
+// Where the effect's contribution stands out (over 2 sigma of the noise, or the
+// intervals holding half its signal when nothing does alone), in the component it shows most, and the held-out
 // residual there without and with it.
 Diagnoser::Localized Diagnoser::Localize(const Candidate& c, const Model& with, const Model& without) const {
   Localized out;
@@ -576,9 +577,16 @@ Diagnoser::Localized Diagnoser::Localize(const Candidate& c, const Model& with, 
     if (!intervals_[k].outlier) ratio[k] = std::abs(contribution[k][out.comp]) / (intervals_[k].sigma[out.comp] * s);
   double threshold = 2.0;
   if (std::count_if(ratio.begin(), ratio.end(), [](double r) { return r > 2.0; }) < 3) {
+    // Nothing stands out alone: the fewest intervals that carry half the effect's signal.
     std::vector<double> sorted = ratio;
-    std::sort(sorted.begin(), sorted.end());
-    threshold = sorted[sorted.size() * 9 / 10];
+    std::sort(sorted.rbegin(), sorted.rend());
+    double total = 0, sum = 0;
+    for (double r : sorted) total += r * r;
+    for (double r : sorted) {
+      sum += r * r;
+      threshold = r;
+      if (sum >= 0.5 * total) break;
+    }
   }
   out.flagged.assign(intervals_.size(), false);
   std::vector<double> in_before, in_after, all_before, all_after;
@@ -739,6 +747,9 @@ DiagnoseReport Diagnoser::Run() {
   CalibrationOptions co;
   co.check_observability = false;
   const CalibrationResult cal = Calibrate(robot_, data_.wheels, data_.motions, data_.source, co, origin_);
+  co.estimate_time_offset = true;
+  co.max_time_offset_s = kMaxOffsetS;
+  offset_start_ = Calibrate(robot_, data_.wheels, data_.motions, data_.source, co, origin_).time_offset->value;
   Model start;
   for (int i = 0; i < num_params_; ++i) {
     start.params[i] = cal.params.at(names[i]).value;
@@ -759,13 +770,14 @@ DiagnoseReport Diagnoser::Run() {
   s2_ = 1.0;
   Gate(FitModel(start, {}, {}).m);
   DiagnoseReport report = Select(start, cal);
-  std::vector<bool> before_gate;
-  for (const Interval& it : intervals_) before_gate.push_back(it.outlier);
-  s2_ = 1.0;
-  Gate(final_);
-  bool changed = false;
-  for (std::size_t k = 0; k < intervals_.size(); ++k) changed = changed || before_gate[k] != intervals_[k].outlier;
-  if (changed) {
+  for (int pass = 1; pass < 4; ++pass) {  // until the outliers no longer change
+    std::vector<bool> before_gate;
+    for (const Interval& it : intervals_) before_gate.push_back(it.outlier);
+    s2_ = 1.0;
+    Gate(final_);
+    bool changed = false;
+    for (std::size_t k = 0; k < intervals_.size(); ++k) changed = changed || before_gate[k] != intervals_[k].outlier;
+    if (!changed) break;
     Progress("outliers re-gated with the effects found; selecting again");
     report = Select(start, cal);
   }
@@ -814,7 +826,11 @@ DiagnoseReport Diagnoser::Select(const Model& start, const CalibrationResult& ca
   std::vector<double> p;
   for (const Candidate& c : cands) {
     Progress("testing " + c.name + (c.wheel.empty() ? "" : " (" + c.wheel + ")"));
-    single.push_back(FitModel(f0.m, c.beta, c.beta));
+    Model from = f0.m;
+    // The time offset's cost has local minima a sample period apart (encoder ticks): start
+    // it where the calibration's own joint estimate put it.
+    if (c.beta[0] == kTimeOffset) from.beta[kTimeOffset] = offset_start_;
+    single.push_back(FitModel(from, c.beta, c.beta));
     p.push_back(single.back().p);
   }
   const std::vector<double> p_adj = HolmAdjust(p);
@@ -1014,10 +1030,12 @@ DiagnoseReport Diagnose(const RobotDescription& robot, const DiagnoseData& data,
   return d.Run();
 }
 
-DiagnoseData ReadDiagnoseData(const RobotDescription& robot, const std::string& log_path,
-                              const std::function<void(const std::string&)>& progress) {
-  DiagnoseData out;
-  out.source = ChooseMotionSource(robot, log_path, std::nullopt);
+namespace {
+
+// WHEELS and the sensor motions, the scans de-skewed with `robot`'s drive model.
+void ReadMotions(const RobotDescription& robot, const std::string& log_path,
+                 const std::function<void(const std::string&)>& progress, DiagnoseData* data) {
+  DiagnoseData& out = *data;
   // Beam timing the scans declare: all zero makes scan_distortion testable.
   int64_t zero_timing = 0, scans = 0;
   std::vector<int64_t> stamps;
@@ -1046,6 +1064,31 @@ DiagnoseData ReadDiagnoseData(const RobotDescription& robot, const std::string& 
       if (scan->size() > 1) scan->time_increment = scan_time / scan->size();
     });
     out.motions_spread = spread.motions();
+  }
+}
+
+}  // namespace
+
+DiagnoseData ReadDiagnoseData(const RobotDescription& robot, const std::string& log_path,
+                              const std::function<void(const std::string&)>& progress) {
+  DiagnoseData out;
+  out.source = ChooseMotionSource(robot, log_path, std::nullopt);
+  ReadMotions(robot, log_path, progress, &out);
+  if (out.source == MotionSource::kLidar2d) {
+    // The matcher de-skews scans with the robot file's nominal odometry; the nominal
+    // model's error then leaves a residual that looks like a time offset where the
+    // robot turns fast. Match again with the calibrated model, as the calibration does
+    // for its final answer.
+    try {
+      CalibrationOptions co;
+      co.check_observability = false;
+      const CalibrationResult cal = Calibrate(robot, out.wheels, out.motions, out.source, co, log_path);
+      if (progress) progress("matching the scans again, de-skewed with the calibrated model");
+      out.motions_spread.clear();
+      ReadMotions(Calibrated(robot, cal), log_path, progress, &out);
+    } catch (const InputError&) {
+      // Too little to calibrate: keep the nominal de-skew; Diagnose reports the problem.
+    }
   }
   LogReader reader(log_path);
   LogEvent event;

@@ -234,6 +234,7 @@ void DiagnoseActuation(const RobotDescription& robot, const DiagnoseData& data,
     o.estimate = {value, value_std};
     o.p_value = p;
     o.p_adjusted = std::min(1.0, p * m * options.alpha / std::max(alpha_share, 1e-300));
+    o.detectable = (NormalUpper(alpha_share / m) + NormalUpper(0.2)) * value_std;
     const bool at_null_edge = L.log_search && est > L.hi - 0.5;  // no limit inside the searched range
     const bool significant = p * m < alpha_share && gain > kMinGain && !at_null_edge;
     if (significant) {

@@ -44,7 +44,7 @@ struct DiagnoseOptions {
   double min_heldout_gain = 0.0;  // an effect must lower held-out chi2 by more than this share
   // ... and the held-out RMS where its contribution stands out by more than this share:
   // a real effect fits best where it acts most; a look-alike of something else does not.
-  double min_span_gain = 0.1;
+  double min_span_gain = 0.0;
   std::function<void(const std::string&)> progress;
 };
 
