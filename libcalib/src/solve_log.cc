@@ -80,7 +80,9 @@ void ReadCalibrationStream(const RobotDescription& robot, const std::string& log
       agvcal::laser_scan_t m;
       if (!Decode(event.data.data(), size, &m))
         throw InputError(log_path, EventPlace(event), "does not decode as laser_scan_t");
-      matcher->AddScan(LaserScanFromMessage(m, log_path + ": " + EventPlace(event)));
+      LaserScan scan = LaserScanFromMessage(m, log_path + ": " + EventPlace(event));
+      if (handlers.adjust_scan) handlers.adjust_scan(&scan);
+      matcher->AddScan(scan);
       take_matches();
     } else if (handlers.imu && event.channel == imu_channel) {
       agvcal::imu_t m;
@@ -98,9 +100,9 @@ void ReadCalibrationStream(const RobotDescription& robot, const std::string& log
   if (matcher) {
     matcher->Finish();
     take_matches();
-    if (progress) {
+    if (handlers.progress) {
       const ScanMatchCounts& c = matcher->counts();
-      progress("scan matcher: " + std::to_string(c.scans) + " scans, " + std::to_string(c.matches) +
+      handlers.progress("scan matcher: " + std::to_string(c.scans) + " scans, " + std::to_string(c.matches) +
                " matched pairs (" + std::to_string(c.invalid) + " failed, of which " +
                std::to_string(c.wheel_gaps) + " over encoder gaps; " + std::to_string(c.degenerate) +
                " degenerate)");
@@ -111,8 +113,17 @@ void ReadCalibrationStream(const RobotDescription& robot, const std::string& log
 CalibrationData ReadCalibrationData(const RobotDescription& robot, const std::string& log_path,
                                     MotionSource source,
                                     const std::function<void(const std::string&)>& progress) {
+  return ReadCalibrationData(robot, log_path, source, progress, nullptr);
+}
+
+CalibrationData ReadCalibrationData(const RobotDescription& robot, const std::string& log_path,
+                                    MotionSource source,
+                                    const std::function<void(const std::string&)>& progress,
+                                    const std::function<void(LaserScan*)>& adjust_scan) {
   CalibrationData data(robot);
   CalibrationStreamHandlers handlers;
+  handlers.adjust_scan = adjust_scan;
+  handlers.progress = progress;
   handlers.wheels = [&](const WheelSample& sample) { data.AddWheels(sample); };
   handlers.motion = [&](const SensorMotion& m) { data.AddMotion(m); };
   if (source == MotionSource::kPose) handlers.pose = [&](const agvcal::pose2d_t& m) { data.AddPose(m); };

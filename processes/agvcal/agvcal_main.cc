@@ -22,6 +22,7 @@ Commands:
   stop [--release]            the operator's stop on the bus: the commander holds the robot
   recal ROBOT.yaml LOG --config RECAL.yaml
                               recalibration during normal operation, on a recording
+  diagnose ROBOT.yaml LOG     name the physics the calibrated model leaves out, and prove the fix
 Run 'agvcal COMMAND --help' for a command's options.
 
 Exit status: 0 success, 2 unusable input (names the file, place and problem),
@@ -42,6 +43,7 @@ int Run(int argc, char** argv) {
       {"fuse", agvcal_cli::Fuse},
       {"stop", agvcal_cli::Stop},
       {"recal", agvcal_cli::Recal},
+      {"diagnose", agvcal_cli::Diagnose},
   };
   const auto it = kCommands.find(argv[1]);
   if (it == kCommands.end())

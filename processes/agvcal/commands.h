@@ -12,5 +12,6 @@ int Ground(int argc, char** argv);
 int Fuse(int argc, char** argv);
 int Stop(int argc, char** argv);
 int Recal(int argc, char** argv);
+int Diagnose(int argc, char** argv);
 
 }  // namespace agvcal_cli

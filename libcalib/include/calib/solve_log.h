@@ -10,6 +10,7 @@
 #include "calib/calibration.h"
 #include "calib/calibration_data.h"
 #include "calib/imu_calibration.h"
+#include "calib/laser_scan.h"
 #include "calib/robot.h"
 
 namespace calib {
@@ -36,6 +37,8 @@ struct CalibrationStreamHandlers {
   std::function<void(const agvcal::pose2d_t&)> pose;    // the external pose source's channel
   std::function<void(const agvcal::imu_t&, const std::string& origin)> imu;  // the robot's IMU channel
   std::function<void()> event;                          // after every event of the log
+  std::function<void(LaserScan*)> adjust_scan;           // applied to each scan before matching
+  std::function<void(const std::string&)> progress;     // the scan matcher's counts at the end
 };
 
 // Feeds the log's WHEELS, scan matches (when `match_scans`: the robot file's 2D lidar channel
@@ -48,6 +51,13 @@ void ReadCalibrationStream(const RobotDescription& robot, const std::string& log
 CalibrationData ReadCalibrationData(const RobotDescription& robot, const std::string& log_path,
                                     MotionSource source,
                                     const std::function<void(const std::string&)>& progress);
+
+// The same, with each scan passed through `adjust_scan` before it is matched
+// (the diagnosis re-matches with other beam timing; may be empty).
+CalibrationData ReadCalibrationData(const RobotDescription& robot, const std::string& log_path,
+                                    MotionSource source,
+                                    const std::function<void(const std::string&)>& progress,
+                                    const std::function<void(LaserScan*)>& adjust_scan);
 
 CalibrationResult SolveLog(const RobotDescription& robot, const std::string& log_path,
                            const SolveLogOptions& options);
