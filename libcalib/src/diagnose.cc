@@ -556,9 +556,9 @@ std::string Regime(const std::vector<DiagnosedInterval>& all, const std::vector<
   return out;
 }
 
-// Where the effect's contribution stands out (over 2 sigma of the noise, or the
-// intervals holding half its signal when nothing does alone), in the component it shows most, and the held-out
-// residual there without and with it.
+// Where the effect's contribution stands out (exceeds the noise; at least 10 held-out
+// intervals), in the component it shows most, and the held-out residual there without
+// and with it.
 Diagnoser::Localized Diagnoser::Localize(const Candidate& c, const Model& with, const Model& without) const {
   Localized out;
   Model zeroed = with;
@@ -575,18 +575,18 @@ Diagnoser::Localized Diagnoser::Localize(const Candidate& c, const Model& with, 
   std::vector<double> ratio(intervals_.size(), 0.0);
   for (std::size_t k = 0; k < intervals_.size(); ++k)
     if (!intervals_[k].outlier) ratio[k] = std::abs(contribution[k][out.comp]) / (intervals_[k].sigma[out.comp] * s);
-  double threshold = 2.0;
-  if (std::count_if(ratio.begin(), ratio.end(), [](double r) { return r > 2.0; }) < 3) {
-    // Nothing stands out alone: the fewest intervals that carry half the effect's signal.
-    std::vector<double> sorted = ratio;
-    std::sort(sorted.rbegin(), sorted.rend());
-    double total = 0, sum = 0;
-    for (double r : sorted) total += r * r;
-    for (double r : sorted) {
-      sum += r * r;
-      threshold = r;
-      if (sum >= 0.5 * total) break;
-    }
+  // Intervals by the size of the effect's contribution: all where it exceeds the noise,
+  // then more until they hold enough held-out intervals to judge the fit there.
+  constexpr int kMinHeldout = 10;
+  std::vector<std::size_t> order(intervals_.size());
+  std::iota(order.begin(), order.end(), 0);
+  std::sort(order.begin(), order.end(), [&](std::size_t x, std::size_t y) { return ratio[x] > ratio[y]; });
+  double threshold = 0;
+  int heldout = 0;
+  for (std::size_t k : order) {
+    if (ratio[k] <= 0 || (ratio[k] < 1.0 && heldout >= kMinHeldout)) break;
+    threshold = ratio[k];
+    heldout += intervals_[k].heldout;
   }
   out.flagged.assign(intervals_.size(), false);
   std::vector<double> in_before, in_after, all_before, all_after;
@@ -853,8 +853,16 @@ DiagnoseReport Diagnoser::Select(const Model& start, const CalibrationResult& ca
     const double sigma = std::sqrt(std::max(var, 0.0));
     o.estimate = {c.beta.size() == 2 ? std::hypot(f.m.beta[c.beta[0]], f.m.beta[c.beta[1]]) : f.m.beta[c.beta[0]], sigma};
     o.detectable = (NormalUpper(alpha_odo / m_odo / 2) + NormalUpper(0.2)) * sigma;
-    eligible[j] = p_adj[j] < alpha_odo && gain(f0, f) > options_.min_heldout_gain &&
-                  Localize(c, f.m, f0.m).span_gain() > options_.min_span_gain;
+    const double heldout_gain = gain(f0, f), span_gain = Localize(c, f.m, f0.m).span_gain();
+    eligible[j] = p_adj[j] < alpha_odo && heldout_gain > options_.min_heldout_gain &&
+                  span_gain > options_.min_span_gain;
+    if (p_adj[j] < alpha_odo && !eligible[j]) {
+      std::ostringstream why;
+      why.precision(3);
+      why << "significant on the fit blocks but not confirmed on the held-out blocks (held-out chi2 "
+          << -100 * heldout_gain << " % change, " << -100 * span_gain << " % where it would act)";
+      o.note = why.str();
+    }
     if (eligible[j]) {
       o.status = "significant";
     } else if (!(o.detectable < c.plausible)) {
