@@ -119,6 +119,7 @@ def main():
     ap.add_argument("--jobs", type=int, default=1)
     ap.add_argument("--out", default="", help="write the Markdown report here")
     ap.add_argument("--work", default="")
+    ap.add_argument("--json", default="", help="write the rows as JSON here (for tests)")
     ap.add_argument("--quick", action="store_true", help="CI size: forklift and diff drive, few scenarios")
     ap.add_argument("--drives", default=",".join(DRIVES))
     args = ap.parse_args()
@@ -204,6 +205,7 @@ def main():
                  "| drive | truth | " + " | ".join(catalogue) + " | nothing | errors |",
                  "|---|---|" + "---|" * (len(catalogue) + 2)]
     ordered = sorted(results, key=lambda k: (k[0], k[1] not in ("none", "noisy"), k[1]))
+    rows = []
     for key in ordered:
         d, sc, truth = key
         reps = results[key]
@@ -247,6 +249,8 @@ def main():
         lines.append(f"| {d} | {label} | {size} | {n} | {pct(ok, n)} | {pct(other, n)} | "
                      f"{pct(param_ok, n_eff) if truth else '-'} | {pct(rms_ok, n_eff) if truth else '-'} | "
                      f"{'-' if math.isnan(med) else f'{100 * med:.0f} %'} |")
+        rows.append({"drive": d, "truth": sc, "runs": n, "named_correctly": ok, "other_named": other,
+                     "param_ok": param_ok, "rms_ok": rms_ok, "errors": errors, "named": counts})
         confusion.append(f"| {d} | {label} | " + " | ".join(str(counts.get(c, 0)) for c in catalogue) +
                          f" | {nothing} | {errors} |")
     text = "\n".join(lines + confusion) + "\n"
@@ -254,6 +258,9 @@ def main():
     if args.out:
         with open(args.out, "w") as f:
             f.write(text)
+    if args.json:
+        with open(args.json, "w") as f:
+            json.dump(rows, f, indent=1)
     print(text)
     # Exit status for CI: every named effect right on the quick set.
     if args.quick:
