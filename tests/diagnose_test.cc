@@ -8,6 +8,7 @@
 
 #include <unistd.h>
 
+#include <algorithm>
 #include <cmath>
 #include <cstdio>
 #include <filesystem>
@@ -156,7 +157,8 @@ class SlalomLog {
       // interpolating a jump that falls right after a sample would make the reading look late.
       cmd.utime = config.start_utime + int64_t(t * 1e6) + 5000;
       cmd.mode = DriveMode::kWheels;
-      const double speed = std::min(t / 2.0, 1.0) * (std::fmod(t, 50.0) < 45.0 ? 0.4 : 0.0);  // pauses: outliers-free stops
+      const double in = std::fmod(t, 50.0);  // 45 s runs with 2 s ramps, then 5 s at rest
+      const double speed = 0.4 * std::clamp(std::min(in, 45.0 - in) / 2.0, 0.0, 1.0);
       const double phase = 2 * M_PI * (0.15 + 0.1 * std::floor(t / 50.0)) * t;  // 0.15, 0.25, 0.35 Hz
       cmd.wheels.speed = {speed / radius};
       cmd.wheels.steer = {offset + 0.35 * std::sin(phase)};

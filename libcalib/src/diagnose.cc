@@ -115,7 +115,7 @@ using namespace diag;
 
 constexpr double kOutlierChi2 = 50.0;  // 3 dof, p ~ 1e-10 at the robust scale: failed matches only
 constexpr double kChi2Median3 = 2.366;
-constexpr double kIndistinguishableCorrelation = 0.9;
+constexpr double kHeldoutZ = 1.645;  // one-sided 5 % on the held-out blocks
 
 struct Model {
   double params[5] = {0, 0, 0, 0, 0};
@@ -146,6 +146,7 @@ struct Fit {
   Model m;
   std::vector<int> free;
   double chi2_fit = 0, chi2_heldout = 0;  // whitened, divided by the variance factor
+  std::vector<double> heldout_terms;      // chi2 of each held-out interval, in order
   int n_fit = 0, n_heldout = 0;
   Eigen::MatrixXd cov;         // robust covariance of the free effect parameters
   double wald = 0, p = 1;      // of the free effect parameters named in `tested`
@@ -325,6 +326,7 @@ Fit Diagnoser::FitModel(const Model& start, const std::vector<int>& free,
       const double* blocks[3] = {fit.m.params, fit.m.mount, fit.m.beta};
       it.function->Evaluate(blocks, r, nullptr);
       fit.chi2_heldout += (r[0] * r[0] + r[1] * r[1] + r[2] * r[2]) / s2_;
+      fit.heldout_terms.push_back((r[0] * r[0] + r[1] * r[1] + r[2] * r[2]) / s2_);
       ++fit.n_heldout;
       continue;
     }
@@ -838,6 +840,45 @@ DiagnoseReport Diagnoser::Select(const Model& start, const CalibrationResult& ca
   auto gain = [&](const Fit& before, const Fit& after) {
     return before.chi2_heldout > 0 ? (before.chi2_heldout - after.chi2_heldout) / before.chi2_heldout : 0.0;
   };
+  // Held-out confirmation: does the effect's predicted contribution (its Jacobian times the
+  // fitted change) explain the held-out residual left without it? A score test on data the
+  // fit never saw, one-sided at 5 %, with an autocorrelation-robust variance. The Jacobian
+  // is the model's (for the time offset: from the smoothed speeds), so encoder noise in
+  // the residual cannot correlate with it.
+  auto confirmed = [&](const Fit& before, const Fit& after) {
+    std::vector<double> terms, noise;
+    for (const Interval& it : intervals_) {
+      if (!it.heldout || it.outlier) continue;
+      double r[3];
+      const double* b_blocks[3] = {before.m.params, before.m.mount, before.m.beta};
+      it.function->Evaluate(b_blocks, r, nullptr);
+      double ra[3];
+      Eigen::Matrix<double, 3, 5, Eigen::RowMajor> jp;
+      Eigen::Matrix<double, 3, 3, Eigen::RowMajor> jm;
+      Eigen::Matrix<double, 3, kNumBeta, Eigen::RowMajor> jb;
+      double* jac[3] = {jp.data(), jm.data(), jb.data()};
+      const double* a_blocks[3] = {after.m.params, after.m.mount, after.m.beta};
+      it.function->Evaluate(a_blocks, ra, jac);
+      Eigen::Vector3d contribution = Eigen::Vector3d::Zero();  // change of the residual the effect makes
+      for (int b : after.free)
+        if (std::find(before.free.begin(), before.free.end(), b) == before.free.end())
+          contribution -= jb.col(b) * after.m.beta[b];
+      terms.push_back(contribution.dot(Eigen::Vector3d(r[0], r[1], r[2])) / s2_);
+      noise.push_back(contribution.dot(Eigen::Vector3d(ra[0], ra[1], ra[2])) / s2_);
+    }
+    const std::size_t n = terms.size();
+    if (n < 10) return false;
+    // Variance of the score from what is left with the effect (the noise), not from the
+    // effect itself: under no effect the two agree.
+    double sum = 0, v = 0;
+    for (std::size_t k = 0; k < n; ++k) {
+      sum += terms[k];
+      v += noise[k] * noise[k];
+      for (int l = 1; l <= options_.hac_lags && l <= int(k); ++l)
+        v += 2.0 * (1.0 - double(l) / (options_.hac_lags + 1)) * noise[k] * noise[k - l];
+    }
+    return v > 0 && sum / std::sqrt(v) > kHeldoutZ;
+  };
   std::vector<CandidateOutcome> outcomes(cands.size());
   std::vector<bool> eligible(cands.size(), false);
   for (std::size_t j = 0; j < cands.size(); ++j) {
@@ -854,13 +895,12 @@ DiagnoseReport Diagnoser::Select(const Model& start, const CalibrationResult& ca
     o.estimate = {c.beta.size() == 2 ? std::hypot(f.m.beta[c.beta[0]], f.m.beta[c.beta[1]]) : f.m.beta[c.beta[0]], sigma};
     o.detectable = (NormalUpper(alpha_odo / m_odo / 2) + NormalUpper(0.2)) * sigma;
     const double heldout_gain = gain(f0, f), span_gain = Localize(c, f.m, f0.m).span_gain();
-    eligible[j] = p_adj[j] < alpha_odo && heldout_gain > options_.min_heldout_gain &&
-                  span_gain > options_.min_span_gain;
+    eligible[j] = p_adj[j] < alpha_odo && confirmed(f0, f);
     if (p_adj[j] < alpha_odo && !eligible[j]) {
       std::ostringstream why;
       why.precision(3);
       why << "significant on the fit blocks but not confirmed on the held-out blocks (held-out chi2 "
-          << -100 * heldout_gain << " % change, " << -100 * span_gain << " % where it would act)";
+          << -100 * heldout_gain << " % change, residual " << -100 * span_gain << " % where it would act)";
       o.note = why.str();
     }
     if (eligible[j]) {
@@ -888,9 +928,7 @@ DiagnoseReport Diagnoser::Select(const Model& start, const CalibrationResult& ca
       for (int b : cands[j].beta) startm.beta[b] = single[j].m.beta[b];
       Fit f = FitModel(startm, free, cands[j].beta);
       const double level = alpha_odo / double(m_odo - chosen.size());
-      if (f.p < level && gain(current, f) > options_.min_heldout_gain &&
-          Localize(cands[j], f.m, current.m).span_gain() > options_.min_span_gain &&
-          (best < 0 || f.wald > best_fit.wald)) {
+      if (f.p < level && confirmed(current, f) && (best < 0 || f.wald > best_fit.wald)) {
         best = int(j);
         best_fit = f;
       }
@@ -917,8 +955,7 @@ DiagnoseReport Diagnoser::Select(const Model& start, const CalibrationResult& ca
       const Fit without = FitModel(startm, others, {});
       const Fit with = FitModel(current.m, current.free, c.beta);
       const double level = alpha_odo / double(m_odo - chosen.size() + 1);
-      if (with.p < level && gain(without, with) > options_.min_heldout_gain &&
-          Localize(c, with.m, without.m).span_gain() > options_.min_span_gain) {
+      if (with.p < level && confirmed(without, with)) {
         chosen_p[n] = with.p;
         chosen_wald[n] = with.wald;
         continue;
@@ -933,26 +970,31 @@ DiagnoseReport Diagnoser::Select(const Model& start, const CalibrationResult& ca
     }
   }
 
-  // Confusable pairs: a chosen effect against its look-alike that was significant on its own.
+  // Confusable pairs: a chosen effect fitted together with its look-alike. When neither
+  // stands on its own given the other, the data cannot tell them apart.
   for (const PairInfo& pair : kConfusable) {
     for (int side = 0; side < 2; ++side) {
       const std::string x = side ? pair.b : pair.a, y = side ? pair.a : pair.b;
       int ix = -1, iy = -1;
       for (int j : chosen) if (cands[j].name == x) ix = j;
       for (std::size_t j = 0; j < cands.size(); ++j) if (cands[j].name == y) iy = int(j);
-      if (ix < 0 || iy < 0 || std::find(chosen.begin(), chosen.end(), iy) != chosen.end() || !eligible[iy]) continue;
+      if (ix < 0 || iy < 0 || std::find(chosen.begin(), chosen.end(), iy) != chosen.end()) continue;
       std::vector<int> free = current.free;
       free.push_back(cands[iy].beta[0]);
-      Fit joint = FitModel(current.m, free, {cands[iy].beta[0]});
+      Model startm = current.m;
+      startm.beta[cands[iy].beta[0]] = single[iy].m.beta[cands[iy].beta[0]];
+      const Fit joint = FitModel(startm, free, {cands[iy].beta[0]});
       const int a = int(std::find(free.begin(), free.end(), cands[ix].beta[0]) - free.begin());
       const int b = int(free.size()) - 1;
       const double corr = joint.cov(a, b) / std::sqrt(std::max(joint.cov(a, a) * joint.cov(b, b), 1e-300));
-      if (std::abs(corr) > kIndistinguishableCorrelation) {
+      const double px = joint.cov(a, a) > 0 ? Chi2Sf(std::pow(joint.m.beta[cands[ix].beta[0]], 2) / joint.cov(a, a), 1) : 1.0;
+      const double level = alpha_odo / m_odo;
+      if (px >= level && joint.p >= level) {
         report.indistinguishable.push_back({x, y, corr, pair.motion});
         outcomes[iy].status = "indistinguishable";
         outcomes[ix].note = "indistinguishable from " + y + " with this recording; to separate them drive " + pair.motion;
         outcomes[iy].note = "indistinguishable from " + x + "; drive " + pair.motion;
-      } else {
+      } else if (eligible[iy]) {
         outcomes[iy].status = "rejected";
         outcomes[iy].note = "explained by " + x + " (correlation of the estimates " + std::to_string(corr) + ")";
       }
@@ -1041,8 +1083,11 @@ DiagnoseReport Diagnose(const RobotDescription& robot, const DiagnoseData& data,
 namespace {
 
 // WHEELS and the sensor motions, the scans de-skewed with `robot`'s drive model.
+// `shift_us` moves the scans' stamps onto the wheel clock for de-skewing and matching;
+// the motions get their recorded stamps back, so a time offset stays in the data.
 void ReadMotions(const RobotDescription& robot, const std::string& log_path,
-                 const std::function<void(const std::string&)>& progress, DiagnoseData* data) {
+                 const std::function<void(const std::string&)>& progress, int64_t shift_us,
+                 DiagnoseData* data) {
   DiagnoseData& out = *data;
   // Beam timing the scans declare: all zero makes scan_distortion testable.
   int64_t zero_timing = 0, scans = 0;
@@ -1054,11 +1099,16 @@ void ReadMotions(const RobotDescription& robot, const std::string& log_path,
     zero_timing += scan->time_increment == 0.0;
     if (scan->scan_time > 0) scan_time = scan->scan_time;
     stamps.push_back(scan->utime);
+    scan->utime -= shift_us;
+  };
+  auto restore = [shift_us](std::vector<SensorMotion> motions) {
+    for (SensorMotion& m : motions) m.utime_start += shift_us, m.utime_end += shift_us;
+    return motions;
   };
   const CalibrationData cal = ReadCalibrationData(robot, log_path, out.source, progress,
                                                   std::function<void(LaserScan*)>(check_scan));
   out.wheels = cal.wheels();
-  out.motions = cal.motions();
+  out.motions = restore(cal.motions());
   if (scans > 10 && zero_timing == scans) {
     if (!(scan_time > 0)) {
       std::vector<int64_t> gaps;
@@ -1070,18 +1120,21 @@ void ReadMotions(const RobotDescription& robot, const std::string& log_path,
     if (progress) progress("scans declare no beam timing: matching again with beams spread over the scan");
     const CalibrationData spread = ReadCalibrationData(robot, log_path, out.source, nullptr, [&](LaserScan* scan) {
       if (scan->size() > 1) scan->time_increment = scan_time / scan->size();
+      scan->utime -= shift_us;
     });
-    out.motions_spread = spread.motions();
+    out.motions_spread = restore(spread.motions());
   }
 }
 
 }  // namespace
 
 DiagnoseData ReadDiagnoseData(const RobotDescription& robot, const std::string& log_path,
-                              const std::function<void(const std::string&)>& progress) {
+                              const std::function<void(const std::string&)>& progress,
+                              double deskew_offset_s) {
   DiagnoseData out;
   out.source = ChooseMotionSource(robot, log_path, std::nullopt);
-  ReadMotions(robot, log_path, progress, &out);
+  const int64_t shift_us = std::llround(deskew_offset_s * 1e6);
+  ReadMotions(robot, log_path, progress, shift_us, &out);
   if (out.source == MotionSource::kLidar2d) {
     // The matcher de-skews scans with the robot file's nominal odometry; the nominal
     // model's error then leaves a residual that looks like a time offset where the
@@ -1093,7 +1146,7 @@ DiagnoseData ReadDiagnoseData(const RobotDescription& robot, const std::string& 
       const CalibrationResult cal = Calibrate(robot, out.wheels, out.motions, out.source, co, log_path);
       if (progress) progress("matching the scans again, de-skewed with the calibrated model");
       out.motions_spread.clear();
-      ReadMotions(Calibrated(robot, cal), log_path, progress, &out);
+      ReadMotions(Calibrated(robot, cal), log_path, progress, shift_us, &out);
     } catch (const InputError&) {
       // Too little to calibrate: keep the nominal de-skew; Diagnose reports the problem.
     }
@@ -1111,6 +1164,31 @@ DiagnoseData ReadDiagnoseData(const RobotDescription& robot, const std::string& 
   std::stable_sort(out.commands.begin(), out.commands.end(),
                    [](const DriveCommand& a, const DriveCommand& b) { return a.utime < b.utime; });
   return out;
+}
+
+}  // namespace calib
+
+namespace calib {
+
+DiagnoseReport DiagnoseLog(const RobotDescription& robot, const std::string& log_path,
+                           const DiagnoseOptions& options) {
+  DiagnoseData data = ReadDiagnoseData(robot, log_path, options.progress);
+  DiagnoseReport report = Diagnose(robot, data, options, log_path);
+  if (data.source != MotionSource::kLidar2d) return report;
+  for (const FoundEffect& e : report.effects) {
+    if (e.name != "time_offset") continue;
+    // Scans were de-skewed with wheel data from the wrong time: match them again on the
+    // wheel clock (stamps kept) and diagnose once more.
+    const double offset = e.params.at("offset_s").value;
+    if (std::abs(offset) < 0.001) break;
+    if (options.progress) options.progress("time offset found: matching again with the scans de-skewed on the wheel clock");
+    data = ReadDiagnoseData(robot, log_path, options.progress, offset);
+    report = Diagnose(robot, data, options, log_path);
+    report.notes.push_back("scans de-skewed with the wheel data " + std::to_string(offset) +
+                           " s earlier than their stamps (the time offset found in a first pass)");
+    break;
+  }
+  return report;
 }
 
 }  // namespace calib

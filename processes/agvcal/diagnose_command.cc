@@ -50,15 +50,13 @@ int Diagnose(int argc, char** argv) {
     throw calib::InputError("command line", "--block-s", "expected at least 1 s");
   if (!args.Has("--quiet")) options.progress = [](const std::string& line) { std::cerr << line << "\n"; };
 
-  const calib::DiagnoseData data = calib::ReadDiagnoseData(robot, log_path, options.progress);
-  const calib::DiagnoseReport report = calib::Diagnose(robot, data, options, log_path);
+  const calib::DiagnoseReport report = calib::DiagnoseLog(robot, log_path, options);
   std::cout << calib::DiagnoseSummaryText(report);
 
   std::string json = calib::DiagnoseReportJson(report);
   if (args.Has("--sim")) {
     const std::string sim_path = args.Get("--sim", "");
-    const calib::DiagnoseData sim_data = calib::ReadDiagnoseData(robot, sim_path, options.progress);
-    const calib::DiagnoseReport sim = calib::Diagnose(robot, sim_data, options, sim_path);
+    const calib::DiagnoseReport sim = calib::DiagnoseLog(robot, sim_path, options);
     const std::string comparison = calib::CompareWithSimJson(report, sim);
     std::cout << "\nCompared with the simulator's recording " << sim_path << ":\n" << comparison << "\n";
     nlohmann::json j = nlohmann::json::parse(json);
