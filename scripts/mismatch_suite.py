@@ -60,6 +60,9 @@ def run_one(args, drive, scenario, effects, seed, extra_sensors=None, trajectory
     sim = os.path.join(args.work, tag + ".yaml")
     log = os.path.join(args.work, tag + ".log")
     out = os.path.join(args.work, tag + ".json")
+    if args.reuse and os.path.exists(out):  # a finished run of this work folder: score it again
+        with open(out) as f:
+            return json.load(f)
     with open(os.path.join(HERE, "config", "sims", drive + ".yaml")) as f:
         text = f.read()
     lines = []
@@ -120,6 +123,7 @@ def main():
     ap.add_argument("--out", default="", help="write the Markdown report here")
     ap.add_argument("--work", default="")
     ap.add_argument("--json", default="", help="write the rows as JSON here (for tests)")
+    ap.add_argument("--reuse", action="store_true", help="reuse the REPORT.json already in --work")
     ap.add_argument("--quick", action="store_true", help="CI size: forklift and diff drive, few scenarios")
     ap.add_argument("--drives", default=",".join(DRIVES))
     args = ap.parse_args()
@@ -199,8 +203,8 @@ def main():
              "Magnitudes are twice the median `detectable` size of the drive's no-effect controls",
              "(scan_distortion: a real 50 ms scan; steering_rate_limit: half the commanded steering rate;",
              "drive_lag: 20 ms, a fifth of a typical drive's response time).", "",
-             "| drive | truth | size | runs | named correctly | other effect named | parameter within 20 % or 2σ | held-out RMS ≥ 20 % lower where it acts | median held-out reduction |",
-             "|---|---|---|---|---|---|---|---|---|"]
+             "| drive | truth | size | runs | named correctly | other effect named | of which reported indistinguishable from the truth | parameter within 20 % or 2σ | held-out RMS ≥ 20 % lower where it acts | median held-out reduction where it acts |",
+             "|---|---|---|---|---|---|---|---|---|---|"]
     confusion = ["", "## What was named", "",
                  "| drive | truth | " + " | ".join(catalogue) + " | nothing | errors |",
                  "|---|---|" + "---|" * (len(catalogue) + 2)]
@@ -210,7 +214,7 @@ def main():
         d, sc, truth = key
         reps = results[key]
         truth = json.loads(truth) if truth else {}
-        ok = other = param_ok = rms_ok = 0
+        ok = other = param_ok = rms_ok = ambiguous = 0
         reductions = []
         counts = {c: 0 for c in catalogue}
         nothing = errors = 0
@@ -228,6 +232,8 @@ def main():
             else:
                 ok += not found
             other += any(f not in truth for f in found)
+            pairs = [set(d["effects"]) for d in rep.get("indistinguishable", [])]
+            ambiguous += any(p & set(truth) for p in pairs) and found != expected
             for e in rep.get("effects", []):
                 if e["name"] not in truth:
                     continue
@@ -246,10 +252,10 @@ def main():
         label = sc if truth or sc.startswith("unexcited") else ("none" if sc == "none" else "none, coloured noise + outliers")
         med = sorted(reductions)[len(reductions) // 2] if reductions else float("nan")
         pct = lambda x, m: f"{100.0 * x / m:.0f} %" if m else "-"
-        lines.append(f"| {d} | {label} | {size} | {n} | {pct(ok, n)} | {pct(other, n)} | "
+        lines.append(f"| {d} | {label} | {size} | {n} | {pct(ok, n)} | {pct(other, n)} | {pct(ambiguous, n) if truth else '-'} | "
                      f"{pct(param_ok, n_eff) if truth else '-'} | {pct(rms_ok, n_eff) if truth else '-'} | "
                      f"{'-' if math.isnan(med) else f'{100 * med:.0f} %'} |")
-        rows.append({"drive": d, "truth": sc, "runs": n, "named_correctly": ok, "other_named": other,
+        rows.append({"drive": d, "truth": sc, "runs": n, "named_correctly": ok, "other_named": other, "ambiguous": ambiguous,
                      "param_ok": param_ok, "rms_ok": rms_ok, "errors": errors, "named": counts})
         confusion.append(f"| {d} | {label} | " + " | ".join(str(counts.get(c, 0)) for c in catalogue) +
                          f" | {nothing} | {errors} |")

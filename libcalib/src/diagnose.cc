@@ -460,15 +460,18 @@ void Diagnoser::Conditions(DiagnoseReport* report) const {
   }
 }
 
+// The regressor of an effect's signature, scaled by the interval's duration where the
+// effect accumulates over it (what the residual of one interval is proportional to).
 double Diagnoser::Regressor(const std::string& name, const DiagnosedInterval& d, const Interval& it) const {
   const MotionConditions& c = d.motion;
-  if (name == "accel") return c.accel;
-  if (name == "turn_accel") return c.turn_accel;
-  if (name == "speed_x_accel") return c.speed * c.accel;
-  if (name == "centripetal") return c.centripetal;
-  if (name == "speed_x_steer_rate") return c.speed * c.steer_rate;
-  if (name == "steer_direction") return c.steer_direction * (c.speed >= 0 ? 1.0 : -1.0);
-  if (name == "travel_direction") return c.speed >= 0 ? 1.0 : -1.0;
+  const double dur = (d.utime_end - d.utime_start) * 1e-6;
+  if (name == "accel") return c.accel * dur;
+  if (name == "turn_accel") return c.turn_accel * dur;
+  if (name == "speed_x_accel") return c.speed * c.accel * dur;
+  if (name == "centripetal") return c.centripetal * dur;
+  if (name == "speed_x_steer_rate") return c.speed * c.steer_rate * dur;
+  if (name == "steer_direction") return c.steer_direction * c.speed * dur;
+  if (name == "travel_direction") return c.speed * dur;
   if (name.rfind("wheel_angle_", 0) == 0) {
     const int w = std::stoi(name.substr(12));
     const std::size_t mid = (it.model->first() + it.model->last()) / 2;
@@ -477,6 +480,19 @@ double Diagnoser::Regressor(const std::string& name, const DiagnosedInterval& d,
   if (name == "speed") return c.speed;
   if (name == "turn_rate") return c.turn_rate;
   return 0.0;
+}
+
+std::string RegressorLabel(const std::string& name) {
+  if (name == "accel") return "speed change over the interval (m/s)";
+  if (name == "turn_accel") return "turn-rate change over the interval (rad/s)";
+  if (name == "speed_x_accel") return "speed x speed change (m^2/s^2)";
+  if (name == "centripetal") return "speed x turn rate x duration (m rad/s)";
+  if (name == "speed_x_steer_rate") return "speed x steering change (m rad/s)";
+  if (name == "steer_direction") return "distance signed by the last steering direction (m)";
+  if (name == "travel_direction") return "signed distance (m)";
+  if (name.rfind("wheel_angle_", 0) == 0) return "wheel angle at mid-interval (rad)";
+  if (name == "turn_rate") return "turn rate (rad/s)";
+  return name;
 }
 
 // Mean residual per bin of a regressor: quantile bins, or one bin per value of a sign.
@@ -490,10 +506,11 @@ std::vector<SignatureBin> Signature(const std::vector<double>& x, const std::vec
   const bool discrete = std::all_of(x.begin(), x.end(), [](double v) { return v == -1 || v == 0 || v == 1; });
   if (discrete) {
     edges = {-1.5, -0.5, 0.5, 1.5};
-  } else {
-    const int nb = 8;
-    for (int b = 0; b <= nb; ++b) edges.push_back(sorted[std::min(sorted.size() - 1, sorted.size() * b / nb)]);
-    edges.back() += 1e-12;
+  } else {  // equal widths over the central 96 %, so a trend reads as a line
+    const int nb = 9;
+    const double lo = sorted[sorted.size() * 2 / 100], hi = sorted[sorted.size() * 98 / 100];
+    for (int b = 0; b <= nb; ++b) edges.push_back(lo + (hi - lo) * b / nb);
+    edges.back() += 1e-12 * std::max(1.0, std::abs(hi));
   }
   for (std::size_t b = 0; b + 1 < edges.size(); ++b) {
     SignatureBin bin;
@@ -636,14 +653,17 @@ FoundEffect Diagnoser::Describe(const Candidate& c, const Fit& final_fit, const 
   std::vector<double> x, sb, sa;
   std::string reg = c.regressor;
   if (c.name == "time_offset" && comp == 2) reg = "turn_accel";
-  fe.regressor = reg;
+  fe.regressor = RegressorLabel(reg);
+  // The signature in the component the effect's formula names (slip: along, skid: across).
+  const int sig = c.name == "longitudinal_slip" ? 0 : c.name == "lateral_slip" ? 1 : comp;
+  fe.signature_component = kComponents[sig];
   for (std::size_t k = 0; k < intervals_.size(); ++k) {
     const Interval& it = intervals_[k];
     if (it.outlier) continue;
     if (loc.flagged[k]) flagged_spans.push_back({it.motion->utime_start, it.motion->utime_end});
     x.push_back(Regressor(reg, report.intervals[k], it));
-    sb.push_back(ErrorOf(it, without.m)[comp]);
-    sa.push_back(ErrorOf(it, final_fit.m)[comp]);
+    sb.push_back(ErrorOf(it, without.m)[sig]);
+    sa.push_back(ErrorOf(it, final_fit.m)[sig]);
   }
   fe.where = MergeSpans(flagged_spans, 2000000);
   fe.heldout_rms_before = loc.rms_before;

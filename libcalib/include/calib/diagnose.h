@@ -108,6 +108,7 @@ struct FoundEffect {
   std::vector<TimeSpan> where;
   std::string regime;     // the motion under which it shows, in words
   std::string regressor;  // what the signature is binned by
+  std::string signature_component;  // the residual component binned
   std::vector<SignatureBin> signature;
 };
 
