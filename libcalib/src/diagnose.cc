@@ -733,11 +733,14 @@ void Diagnoser::FindUnexplained(DiagnoseReport* report) const {
       what << r.name << " (" << kComponents[comp] << " residual, slope " << slope
            << " sigma per unit, t = " << t << ")";
       un.correlates_with = what.str();
+      // Where: the tenth of the held-out intervals with the regressor furthest along the
+      // trend (largest for a rising residual, smallest for a falling one).
+      std::vector<double> sorted = z;
+      std::sort(sorted.begin(), sorted.end());
+      const double cut = slope > 0 ? sorted[n * 9 / 10] : sorted[n / 10];
       std::vector<TimeSpan> spans;
-      const double sz = std::sqrt(szz / n);
       for (std::size_t k = 0; k < n; ++k)
-        if ((z[k] - mz) * (slope > 0 ? 1 : -1) > sz && e[k] * (slope > 0 ? 1 : -1) > 1.0)
-          spans.push_back({used[k]->utime_start, used[k]->utime_end});
+        if (slope > 0 ? z[k] >= cut : z[k] <= cut) spans.push_back({used[k]->utime_start, used[k]->utime_end});
       un.where = MergeSpans(spans, 2000000);
       report->unexplained.push_back(un);
     }
@@ -805,6 +808,9 @@ DiagnoseReport Diagnoser::Run() {
   }
   DiagnoseActuation(robot_, data_, options_, options_.alpha * m_act_ / double(m_odo_ + m_act_), &report);
   FindUnexplained(&report);
+  std::stable_sort(report.unexplained.begin(), report.unexplained.end(),
+                   [](const Unexplained& a, const Unexplained& b) { return a.p_value < b.p_value; });
+  if (report.unexplained.size() > 3) report.unexplained.resize(3);  // the strongest; the rest add little
   report.verdict = report.effects.empty() ? "no_significant_effect" : "effects_found";
   return report;
 }
@@ -1061,6 +1067,8 @@ DiagnoseReport Diagnoser::Select(const Model& start, const CalibrationResult& ca
     fe.p_adjusted = std::min(1.0, chosen_p[n] * double(m_odo - n) * double(m_odo + m_act) / m_odo);
     fe.delta_bic = (current.chi2_fit - without.chi2_fit) + c.beta.size() * log_n;
     outcomes[chosen[n]].status = "found";
+    if (c.beta[0] == kTimeOffset && std::abs(current.m.beta[kTimeOffset]) > 0.95 * kMaxOffsetS)
+      report.notes.push_back("the time offset is at its search bound: treat it as larger than shown");
     if (!c.catalogued) {
       Unexplained un;
       un.where = fe.where;

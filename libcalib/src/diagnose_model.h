@@ -34,7 +34,7 @@ enum Beta {
 };
 
 constexpr double kHistoryS = 2.0;   // steering history kept before an interval (lag <= 0.25 s)
-constexpr double kMaxOffsetS = 0.2; // time offset search bound
+constexpr double kMaxOffsetS = 0.5; // time offset search bound (real logs show 0.1-0.2 s)
 
 // The encoder track with what the effect terms need per sample, in role order.
 struct Track {
