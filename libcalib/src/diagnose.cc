@@ -921,7 +921,12 @@ DiagnoseReport Diagnoser::Select(const Model& start, const CalibrationResult& ca
     o.estimate = {c.beta.size() == 2 ? std::hypot(f.m.beta[c.beta[0]], f.m.beta[c.beta[1]]) : f.m.beta[c.beta[0]], sigma};
     o.detectable = (NormalUpper(alpha_odo / m_odo / 2) + NormalUpper(0.2)) * sigma;
     const double heldout_gain = gain(f0, f), span_gain = Localize(c, f.m, f0.m).span_gain();
-    eligible[j] = p_adj[j] < alpha_odo && confirmed(f0, f);
+    // The Wald statistic rests on a linearisation; where the model is far from linear in the
+    // parameter (a lag near its bound) it can overstate the evidence: the fit must also pay
+    // for its parameter in BIC. Not for the time offset, whose chi-square drop is shrunk by
+    // encoder noise in the regressor (its Wald uses the instrument, see diagnose_model.h).
+    const bool bic_ok = c.beta[0] == kTimeOffset || o.delta_bic < 0;
+    eligible[j] = p_adj[j] < alpha_odo && confirmed(f0, f) && bic_ok;
     if (p_adj[j] < alpha_odo && !eligible[j]) {
       std::ostringstream why;
       why.precision(3);
