@@ -8,6 +8,7 @@
 
 #include <unistd.h>
 
+#include <algorithm>
 #include <cmath>
 #include <cstdio>
 #include <filesystem>
@@ -17,6 +18,7 @@
 
 #include "calib/diagnose.h"
 #include "calib/errors.h"
+#include "calib/messages.h"
 #include "calib/recording.h"
 #include "calib/sim_run.h"
 #include "calib/simulator.h"
@@ -137,6 +139,72 @@ TEST(Diagnose, UnexcitedSteeringLagIsNotNamedAsSomethingElse) {
   const CandidateOutcome& lag = Outcome(r, "steering_lag");
   EXPECT_NE(lag.status, "found");
   EXPECT_GT(lag.detectable, 0.1);
+}
+
+// A slalom: the forklift drives at constant speed while steering sinusoidally (the
+// commander's trajectories steer only at standstill), commands recorded on DRIVE_CMD.
+class SlalomLog {
+ public:
+  explicit SlalomLog(const SimConfig& config)
+      : path_("/tmp/agvcal_diagnose_slalom_" + std::to_string(::getpid()) + "_" + std::to_string(counter_++) + ".log") {
+    LogWriter writer(path_);
+    Simulator sim(config);
+    const double radius = config.robot.param("drive_radius"), offset = config.robot.param("steer_offset");
+    int64_t seq = 0;
+    for (double t = 0; t < 150.0; t += 0.05) {
+      DriveCommand cmd;
+      // Between wheel samples: the simulated steering jumps to each command at once, and
+      // interpolating a jump that falls right after a sample would make the reading look late.
+      cmd.utime = config.start_utime + int64_t(t * 1e6) + 5000;
+      cmd.mode = DriveMode::kWheels;
+      const double in = std::fmod(t, 50.0);  // 45 s runs with 2 s ramps, then 5 s at rest
+      const double speed = 0.4 * std::clamp(std::min(in, 45.0 - in) / 2.0, 0.0, 1.0);
+      const double phase = 2 * M_PI * (0.15 + 0.1 * std::floor(t / 50.0)) * t;  // 0.15, 0.25, 0.35 Hz
+      cmd.wheels.speed = {speed / radius};
+      cmd.wheels.steer = {offset + 0.35 * std::sin(phase)};
+      cmd.timeout_s = 0.5;
+      sim.AdvanceTo(cmd.utime, &writer);
+      writer.Publish(kDriveCmdChannel, cmd.utime, Encode(ToMessage(cmd, config.robot, seq++)));
+      sim.ApplyCommand(cmd);
+    }
+    sim.AdvanceTo(config.start_utime + int64_t(151e6), &writer);
+    writer.Close();
+  }
+  ~SlalomLog() { std::remove(path_.c_str()); }
+  const std::string& path() const { return path_; }
+
+ private:
+  static inline int counter_ = 0;
+  std::string path_;
+};
+
+TEST(Diagnose, SteeringLagWhenSteeringWhileDriving) {
+  SimConfig c = Sim("forklift", 18);
+  c.effects.steering_lag_tau_s = 0.05;
+  const SlalomLog log(c);
+  const DiagnoseData data = ReadDiagnoseData(c.robot, log.path(), nullptr);
+  const DiagnoseReport r = Diagnose(c.robot, data, DiagnoseOptions{}, log.path());
+  ExpectFound(r, "steering_lag", "tau_s", 0.05);
+  // Its look-alike, a time offset, was tested against it and not named.
+  EXPECT_NE(Outcome(r, "time_offset").status, "found");
+}
+
+TEST(Diagnose, TimeOffsetNotTakenForSteeringLag) {
+  SimConfig c = Sim("forklift", 19);
+  c.effects.time_offset_s = 0.01;
+  const SlalomLog log(c);
+  const DiagnoseData data = ReadDiagnoseData(c.robot, log.path(), nullptr);
+  const DiagnoseReport r = Diagnose(c.robot, data, DiagnoseOptions{}, log.path());
+  ExpectFound(r, "time_offset", "offset_s", 0.01);
+  EXPECT_NE(Outcome(r, "steering_lag").status, "found");
+}
+
+TEST(Diagnose, CleanSlalomHasNoEffect) {
+  const SimConfig c = Sim("forklift", 20);
+  const SlalomLog log(c);
+  const DiagnoseData data = ReadDiagnoseData(c.robot, log.path(), nullptr);
+  const DiagnoseReport r = Diagnose(c.robot, data, DiagnoseOptions{}, log.path());
+  EXPECT_TRUE(r.effects.empty()) << "named: " << Named(r) << "\n" << DiagnoseSummaryText(r);
 }
 
 TEST(Diagnose, ReportFilesAndSimConfig) {

@@ -34,7 +34,7 @@ enum Beta {
 };
 
 constexpr double kHistoryS = 2.0;   // steering history kept before an interval (lag <= 0.25 s)
-constexpr double kMaxOffsetS = 0.2; // time offset search bound
+constexpr double kMaxOffsetS = 0.5; // time offset search bound (real logs show 0.1-0.2 s)
 
 // The encoder track with what the effect terms need per sample, in role order.
 struct Track {
@@ -88,8 +88,12 @@ class IntervalModel {
     const int nw = tr.wheels;
     const T tau = beta[kLag];
     const double tau_v = std::max(Scalar(tau), 0.0);
-    // The scan stamped t was taken at wheel time t - offset.
-    const T a = -beta[kTimeOffset], b = T(duration_) - beta[kTimeOffset];
+    // The scan stamped t was taken at wheel time t - offset: the window [-offset, D - offset],
+    // integrated exactly at the offset's current value; its derivative comes from the
+    // smoothed wheel speeds at the window's ends (below), not from the encoder samples the
+    // prediction itself uses, so encoder noise cannot correlate with its own regressor.
+    const double offset_v = Scalar(beta[kTimeOffset]);
+    const T a = T(-offset_v), b = T(duration_ - offset_v);
     // The lag filter starts where its memory has faded; its state there is the
     // ramp response u - tau * slope (exact for a steering ramp).
     double lead = std::min(kHistoryS, 8.0 * tau_v);
@@ -158,6 +162,15 @@ class IntervalModel {
         ++i;
       }
     }
+    {
+      const T d_offset = beta[kTimeOffset] - T(offset_v);  // zero, with the offset's derivative
+      T ea[3], eb[3];
+      SmoothTwist(params, Scalar(a), ea);
+      SmoothTwist(params, Scalar(b), eb);
+      const P head = generic::Exp(T(d_offset * ea[0]), T(d_offset * ea[1]), T(d_offset * ea[2]));
+      const P tail = generic::Exp(T(d_offset * eb[0]), T(d_offset * eb[1]), T(d_offset * eb[2]));
+      q = generic::Compose(generic::Compose(head, q), generic::Inverse(tail));
+    }
     const P l{mount[0], mount[1], mount[2]};
     const P z = generic::Compose(generic::Compose(generic::Inverse(l), q), l);
     T measured[3];
@@ -182,6 +195,18 @@ class IntervalModel {
   double Slope(std::size_t i, int w) const {
     return (tr_->steer[i + 1][w] - tr_->steer[i][w]) / (Time(i + 1) - Time(i));
   }
+  // Body twist at time t (s from the interval's start) from the smoothed wheel speeds.
+  template <typename T>
+  void SmoothTwist(const T* params, double t, T* twist) const {
+    const std::size_t i = Segment(t);
+    T rates[2] = {T(0.0), T(0.0)}, steer[2] = {T(0.0), T(0.0)};
+    for (int w = 0; w < tr_->wheels; ++w) {
+      T pos;
+      Interp(i, T(t), w, &pos, steer + w, rates + w);
+    }
+    generic::BodyDisplacement(tr_->drive, params, rates, steer, twist, twist + 1, twist + 2);
+  }
+
   template <typename T>
   void Interp(std::size_t i, const T& t, int w, T* pos, T* steer, T* speed) const {
     const T f = (t - Time(i)) / (Time(i + 1) - Time(i));

@@ -58,7 +58,7 @@ std::string DiagnoseReportJson(const DiagnoseReport& r) {
     je["heldout_component"] = e.component;
     je["where"] = Spans(e.where);
     je["regime"] = e.regime;
-    je["signature"] = {{"regressor", e.regressor}, {"bins", nlohmann::json::array()}};
+    je["signature"] = {{"regressor", e.regressor}, {"component", e.signature_component}, {"bins", nlohmann::json::array()}};
     for (const SignatureBin& b : e.signature)
       je["signature"]["bins"].push_back({{"x", b.x}, {"before", b.before}, {"after", b.after},
                                          {"std_error", b.std_error}, {"count", b.count}});

@@ -55,8 +55,8 @@ void WriteDiagnoseReportDir(const DiagnoseReport& r, const std::string& dir) {
     const std::string name = "signature_" + std::to_string(++n) + "_" + e.name + ".svg";
     SvgPlot plot("Signature of " + e.name + (e.wheel.empty() ? "" : " (" + e.wheel + ")") +
                  ": mean residual per bin, without (grey) and with (blue) the effect");
-    SvgPlot::Panel& p = plot.AddPanel(e.component + " residual against " + e.regressor, e.regressor,
-                                      e.component + " residual");
+    const std::string comp = e.signature_component.empty() ? e.component : e.signature_component;
+    SvgPlot::Panel& p = plot.AddPanel(comp + " residual against " + e.regressor, e.regressor, comp + " residual");
     SvgPlot::Series b{{}, {}, kBefore, "without", true, {}}, a{{}, {}, kAfter, "with", true, {}};
     for (const SignatureBin& bin : e.signature) {
       b.x.push_back(bin.x), b.y.push_back(bin.before);

@@ -1,4 +1,5 @@
 #include <cstdio>
+#include <filesystem>
 #include <iostream>
 
 #include <nlohmann/json.hpp>
@@ -26,7 +27,8 @@ false-alarm rate over the whole catalogue, and proven on held-out data
   --sim SIM_LOG       also diagnose a simulator's recording of the same commands and
                       report where the two differ (REPORT.json key "sim_comparison")
   --write-sim FILE    a simulation config (truth = refitted calibration, effects found)
-                      that makes the simulator reproduce this robot
+                      that makes the simulator reproduce this robot (world and sensors:
+                      the simulator's defaults; edit to match)
   --alpha A           family-wise false-alarm rate over all candidates (default 0.01)
   --block-s S         length of the alternating fit / held-out blocks (default 10 s)
   --quiet             no progress on stderr
@@ -50,15 +52,13 @@ int Diagnose(int argc, char** argv) {
     throw calib::InputError("command line", "--block-s", "expected at least 1 s");
   if (!args.Has("--quiet")) options.progress = [](const std::string& line) { std::cerr << line << "\n"; };
 
-  const calib::DiagnoseData data = calib::ReadDiagnoseData(robot, log_path, options.progress);
-  const calib::DiagnoseReport report = calib::Diagnose(robot, data, options, log_path);
+  const calib::DiagnoseReport report = calib::DiagnoseLog(robot, log_path, options);
   std::cout << calib::DiagnoseSummaryText(report);
 
   std::string json = calib::DiagnoseReportJson(report);
   if (args.Has("--sim")) {
     const std::string sim_path = args.Get("--sim", "");
-    const calib::DiagnoseData sim_data = calib::ReadDiagnoseData(robot, sim_path, options.progress);
-    const calib::DiagnoseReport sim = calib::Diagnose(robot, sim_data, options, sim_path);
+    const calib::DiagnoseReport sim = calib::DiagnoseLog(robot, sim_path, options);
     const std::string comparison = calib::CompareWithSimJson(report, sim);
     std::cout << "\nCompared with the simulator's recording " << sim_path << ":\n" << comparison << "\n";
     nlohmann::json j = nlohmann::json::parse(json);
@@ -68,7 +68,8 @@ int Diagnose(int argc, char** argv) {
   if (args.Has("--out")) calib::WriteFileAtomically(args.Get("--out", ""), json);
   if (args.Has("--report")) calib::WriteDiagnoseReportDir(report, args.Get("--report", ""));
   if (args.Has("--write-sim"))
-    calib::WriteFileAtomically(args.Get("--write-sim", ""), calib::SimConfigYaml(report, args.positional[0]));
+    calib::WriteFileAtomically(args.Get("--write-sim", ""),
+                               calib::SimConfigYaml(report, std::filesystem::absolute(args.positional[0]).string()));
   return calib::kExitOk;
 }
 

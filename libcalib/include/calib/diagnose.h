@@ -13,9 +13,9 @@
 // calibration on the fit blocks and tested with a Wald statistic whose
 // covariance is autocorrelation-robust (Newey-West over neighbouring
 // intervals); Holm's correction over the whole catalogue keeps the chance of
-// any false alarm below `alpha`. Effects that pass are added greedily (each
-// tested given those already chosen) and must also lower the held-out
-// residual. Confusable pairs are fitted together: separated when the data
+// any false alarm below `alpha`. Effects that pass must also explain the
+// held-out residual (a score test on the held-out blocks) and are added
+// greedily, each tested given those already chosen. Confusable pairs are fitted together: separated when the data
 // tell them apart, reported as indistinguishable (with the motion that would
 // separate them) when not. A candidate whose minimum detectable size exceeds
 // any plausible size is reported as not identifiable, never as something else.
@@ -41,10 +41,6 @@ struct DiagnoseOptions {
   double alpha = 0.01;       // family-wise false-alarm rate over all candidates
   double block_s = 10.0;     // length of the alternating fit / held-out blocks
   int hac_lags = 4;          // Newey-West lags (neighbouring intervals share a scan)
-  double min_heldout_gain = 0.0;  // an effect must lower held-out chi2 by more than this share
-  // ... and the held-out RMS where its contribution stands out by more than this share:
-  // a real effect fits best where it acts most; a look-alike of something else does not.
-  double min_span_gain = 0.0;
   std::function<void(const std::string&)> progress;
 };
 
@@ -60,9 +56,12 @@ struct DiagnoseData {
   std::vector<SensorMotion> motions_spread;
 };
 
-// Reads WHEELS, the motion sensor (scan-matched SCAN or POSE) and DRIVE_CMD.
+// Reads WHEELS, the motion sensor (scan-matched SCAN or POSE) and DRIVE_CMD. The scans
+// are de-skewed with the calibrated model, using the wheel data `deskew_offset_s` before
+// their stamps (the motions keep the recorded stamps).
 DiagnoseData ReadDiagnoseData(const RobotDescription& robot, const std::string& log_path,
-                              const std::function<void(const std::string&)>& progress);
+                              const std::function<void(const std::string&)>& progress,
+                              double deskew_offset_s = 0.0);
 
 // The motion under which an interval was driven (calibrated model, encoders).
 struct MotionConditions {
@@ -109,6 +108,7 @@ struct FoundEffect {
   std::vector<TimeSpan> where;
   std::string regime;     // the motion under which it shows, in words
   std::string regressor;  // what the signature is binned by
+  std::string signature_component;  // the residual component binned
   std::vector<SignatureBin> signature;
 };
 
@@ -166,6 +166,12 @@ struct DiagnoseReport {
 // is too little to work with.
 DiagnoseReport Diagnose(const RobotDescription& robot, const DiagnoseData& data,
                         const DiagnoseOptions& options, const std::string& origin);
+
+// ReadDiagnoseData + Diagnose; when a time offset is found, the scans are matched again
+// de-skewed on the wheel clock and the recording diagnosed once more (what `agvcal
+// diagnose` runs).
+DiagnoseReport DiagnoseLog(const RobotDescription& robot, const std::string& log_path,
+                           const DiagnoseOptions& options);
 
 // REPORT.json (spec/cli.md) with the extra keys of DiagnoseReport.
 std::string DiagnoseReportJson(const DiagnoseReport& report);
