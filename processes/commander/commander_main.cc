@@ -176,6 +176,7 @@ int Run(int argc, char** argv) {
   const int64_t period_us = std::max<int64_t>(1, std::llround(1e6 / rate_hz));
   int64_t seq = 0;
   int64_t last_utime = 0;         // newest wheel-state time (robot clock)
+  bool robot_time_known = false;  // a wheel state has arrived
   int64_t next_command_utime = 0;
   int64_t last_hold_stop_wall = 0;
   std::optional<std::string> held;  // why the robot is being held still
@@ -191,6 +192,9 @@ int Run(int argc, char** argv) {
     lcm.publish(calib::kDriveCmdChannel, &msg);
   };
   auto publish_stop = [&]() {
+    // Before the first wheel state nothing has been commanded, and a stop would have no robot
+    // time to carry (a stamp of 0 amid robot-clock stamps): the status alone says why we wait.
+    if (!robot_time_known) return;
     calib::DriveCommand stop;
     stop.mode = calib::DriveMode::kStop;
     stop.utime = last_utime;
@@ -243,6 +247,7 @@ int Run(int argc, char** argv) {
       const int64_t utime = wheels.utime();
       if (commander && utime < last_utime) continue;  // older than what we have: ignore
       last_utime = utime;
+      robot_time_known = true;
     }
     const std::optional<std::string> reason = safety.HoldReason(WallMicros());
     if (reason) {
