@@ -233,19 +233,19 @@ Requirement RequirementFor(DriveType type, const std::string& name, double nomin
   return {0.05, "turn while driving: the sensor's position shows only when the robot rotates"};
 }
 
-// `keep_partial`: a window cut short by a gap or the end counts too (else it is dropped).
-OdometryError HeldoutOdometry(const std::vector<Interval>& intervals, const State& state,
-                              double window_s, bool keep_partial = false) {
+}  // namespace
+
+OdometryError OdometryErrorOverWindows(const std::vector<OdometryStep>& steps, double window_s,
+                                       bool keep_partial) {
   OdometryError out;
   double sum_t2 = 0, sum_h2 = 0, sum_t = 0;
-  generic::Pose<double> measured{0, 0, 0}, predicted{0, 0, 0};
+  Pose2 measured, predicted;
   int64_t window_start = 0, last_end = 0;
   double distance = 0.0;
   bool open = false;
   auto close = [&]() {
     if (!open) return;
-    const Pose2 d = Between({predicted.x, predicted.y, predicted.theta},
-                            {measured.x, measured.y, measured.theta});
+    const Pose2 d = Between(predicted, measured);
     const double t = std::hypot(d.x, d.y);
     sum_t2 += t * t;
     sum_t += t;
@@ -254,25 +254,22 @@ OdometryError HeldoutOdometry(const std::vector<Interval>& intervals, const Stat
     ++out.windows;
     open = false;
   };
-  for (const Interval& it : intervals) {
-    if (!it.heldout) continue;
-    const SensorMotion& m = *it.motion;
-    if (open && m.utime_start != last_end) {  // a gap: start over
+  for (const OdometryStep& step : steps) {
+    if (open && step.utime_start != last_end) {  // a gap: start over
       if (keep_partial) close();
       open = false;
     }
     if (!open) {
-      measured = predicted = {0, 0, 0};
+      measured = predicted = Pose2{};
       distance = 0.0;
-      window_start = m.utime_start;
+      window_start = step.utime_start;
       open = true;
     }
-    const Eigen::Vector3d e = Error(it, state);
-    const generic::Pose<double> z{m.delta.x, m.delta.y, m.delta.theta};
-    measured = generic::Compose(measured, z);
-    predicted = generic::Compose(predicted, generic::Pose<double>{z.x - e[0], z.y - e[1], z.theta - e[2]});
+    const Pose2& z = step.measured;
+    measured = Compose(measured, z);
+    predicted = Compose(predicted, Pose2{z.x - step.error[0], z.y - step.error[1], z.theta - step.error[2]});
     distance += std::hypot(z.x, z.y);
-    last_end = m.utime_end;
+    last_end = step.utime_end;
     if ((last_end - window_start) * 1e-6 >= window_s) close();
   }
   if (keep_partial) close();
@@ -282,6 +279,19 @@ OdometryError HeldoutOdometry(const std::vector<Interval>& intervals, const Stat
     out.error_per_metre = out.distance_m > 0 ? sum_t / out.distance_m : 0.0;
   }
   return out;
+}
+
+namespace {
+
+OdometryError HeldoutOdometry(const std::vector<Interval>& intervals, const State& state,
+                              double window_s, bool keep_partial = false) {
+  std::vector<OdometryStep> steps;
+  for (const Interval& it : intervals) {
+    if (!it.heldout) continue;
+    const Eigen::Vector3d e = Error(it, state);
+    steps.push_back({it.motion->utime_start, it.motion->utime_end, it.motion->delta, {e[0], e[1], e[2]}});
+  }
+  return OdometryErrorOverWindows(steps, window_s, keep_partial);
 }
 
 // The motions the encoders cover (with `margin_us` either side), in stamp order; the others

@@ -202,6 +202,7 @@ class Diagnoser {
     double rms_before = 0, rms_after = 0, rms_all_before = 0, rms_all_after = 0;  // held-out
     double span_gain() const { return rms_before > 0 ? 1.0 - rms_after / rms_before : 0.0; }
   };
+  OdometryError HeldoutDrift(const Model& m) const;
   Localized Localize(const Candidate& c, const Model& with, const Model& without) const;
   void FindUnexplained(DiagnoseReport* report) const;
 
@@ -623,6 +624,17 @@ Diagnoser::Localized Diagnoser::Localize(const Candidate& c, const Model& with, 
   return out;
 }
 
+// The model's dead reckoning over held-out windows (outliers break the chain).
+OdometryError Diagnoser::HeldoutDrift(const Model& m) const {
+  std::vector<OdometryStep> steps;
+  for (const Interval& it : intervals_) {
+    if (!it.heldout || it.outlier) continue;
+    const Eigen::Vector3d e = ErrorOf(it, m);
+    steps.push_back({it.motion->utime_start, it.motion->utime_end, it.motion->delta, {e[0], e[1], e[2]}});
+  }
+  return OdometryErrorOverWindows(steps, options_.drift_window_s, false);
+}
+
 FoundEffect Diagnoser::Describe(const Candidate& c, const Fit& final_fit, const Fit& without,
                                 const DiagnoseReport& report) const {
   FoundEffect fe;
@@ -670,6 +682,15 @@ FoundEffect Diagnoser::Describe(const Candidate& c, const Fit& final_fit, const 
   fe.heldout_rms_after = loc.rms_after;
   fe.heldout_rms_all_before = loc.rms_all_before;
   fe.heldout_rms_all_after = loc.rms_all_after;
+  const OdometryError drift_before = HeldoutDrift(without.m), drift_after = HeldoutDrift(final_fit.m);
+  const bool heading = comp == 2;
+  fe.drift_component = heading ? "heading" : "translation";
+  fe.drift_window_s = options_.drift_window_s;
+  fe.drift_windows = drift_after.windows;
+  fe.heldout_drift_before = heading ? drift_before.rms_heading_rad : drift_before.rms_translation_m;
+  fe.heldout_drift_after = heading ? drift_after.rms_heading_rad : drift_after.rms_translation_m;
+  // An eccentric wheel's error cancels over each revolution: chaining hides it.
+  if (c.name != "wheel_eccentricity" && drift_after.windows > 0) fe.heldout_measure = "drift";
   fe.signature = Signature(x, sb, sa);
   std::vector<DiagnosedInterval> kept;
   std::vector<bool> kept_flag;
@@ -1057,6 +1078,8 @@ DiagnoseReport Diagnoser::Select(const Model& start, const CalibrationResult& ca
   for (int c = 0; c < 3; ++c) report.heldout_rms_before[c] = Rms(hb[c]), report.heldout_rms_after[c] = Rms(ha[c]);
   report.heldout_chi2_before = f0.chi2_heldout / std::max(1, f0.n_heldout);
   report.heldout_chi2_after = current.chi2_heldout / std::max(1, current.n_heldout);
+  report.heldout_drift_before = HeldoutDrift(f0.m);
+  report.heldout_drift_after = HeldoutDrift(current.m);
 
   for (std::size_t n = 0; n < chosen.size(); ++n) {
     const Candidate& c = cands[chosen[n]];

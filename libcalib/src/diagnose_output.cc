@@ -56,6 +56,11 @@ std::string DiagnoseReportJson(const DiagnoseReport& r) {
     je["heldout_rms_all_before"] = Number(e.heldout_rms_all_before);
     je["heldout_rms_all_after"] = Number(e.heldout_rms_all_after);
     je["heldout_component"] = e.component;
+    if (!e.drift_component.empty())
+      je["heldout_drift"] = {{"component", e.drift_component}, {"window_s", e.drift_window_s},
+                             {"windows", e.drift_windows}, {"rms_before", Number(e.heldout_drift_before)},
+                             {"rms_after", Number(e.heldout_drift_after)}};
+    je["heldout_measure"] = e.heldout_measure;
     je["where"] = Spans(e.where);
     je["regime"] = e.regime;
     je["signature"] = {{"regressor", e.regressor}, {"component", e.signature_component}, {"bins", nlohmann::json::array()}};
@@ -88,7 +93,12 @@ std::string DiagnoseReportJson(const DiagnoseReport& r) {
                   {"rms_before", {r.heldout_rms_before[0], r.heldout_rms_before[1], r.heldout_rms_before[2]}},
                   {"rms_after", {r.heldout_rms_after[0], r.heldout_rms_after[1], r.heldout_rms_after[2]}},
                   {"chi2_per_interval_before", Number(r.heldout_chi2_before)},
-                  {"chi2_per_interval_after", Number(r.heldout_chi2_after)}};
+                  {"chi2_per_interval_after", Number(r.heldout_chi2_after)},
+                  {"drift", {{"windows", r.heldout_drift_after.windows},
+                             {"translation_before", Number(r.heldout_drift_before.rms_translation_m)},
+                             {"translation_after", Number(r.heldout_drift_after.rms_translation_m)},
+                             {"heading_before", Number(r.heldout_drift_before.rms_heading_rad)},
+                             {"heading_after", Number(r.heldout_drift_after.rms_heading_rad)}}}};
   j["fit"] = {{"intervals", r.fit_intervals}, {"outliers", r.outliers}, {"variance_factor", Number(r.variance_factor)}};
   j["notes"] = r.notes;
   nlohmann::json iv = nlohmann::json::array();
@@ -128,6 +138,12 @@ std::string DiagnoseSummaryText(const DiagnoseReport& r) {
       << e.heldout_rms_after << " " << Unit(e.component) << " (" << Percent(e.heldout_rms_before, e.heldout_rms_after)
       << " lower); over all held-out data " << e.heldout_rms_all_before << " -> " << e.heldout_rms_all_after
       << " (" << Percent(e.heldout_rms_all_before, e.heldout_rms_all_after) << ")\n";
+    if (!e.drift_component.empty()) {
+      const char* unit = e.drift_component == "heading" ? "rad" : "m";
+      s << "  held-out dead-reckoning " << e.drift_component << " error over " << e.drift_window_s << " s ("
+        << e.drift_windows << " windows): " << e.heldout_drift_before << " -> " << e.heldout_drift_after << " "
+        << unit << " (" << Percent(e.heldout_drift_before, e.heldout_drift_after) << " lower)\n";
+    }
   }
   for (const Indistinguishable& d : r.indistinguishable)
     s << "\nINDISTINGUISHABLE: " << d.first << " and " << d.second << " (correlation " << d.correlation
@@ -146,6 +162,11 @@ std::string DiagnoseSummaryText(const DiagnoseReport& r) {
     << ", " << r.heldout_rms_before[2] << " -> " << r.heldout_rms_after[0] << ", " << r.heldout_rms_after[1] << ", "
     << r.heldout_rms_after[2] << " (chi2 per interval " << r.heldout_chi2_before << " -> " << r.heldout_chi2_after
     << ")\n";
+  const OdometryError& db = r.heldout_drift_before;
+  const OdometryError& da = r.heldout_drift_after;
+  if (da.windows > 0)
+    s << "Held-out dead reckoning over " << da.windows << " windows: translation " << db.rms_translation_m << " -> "
+      << da.rms_translation_m << " m, heading " << db.rms_heading_rad << " -> " << da.rms_heading_rad << " rad\n";
   for (const std::string& n : r.notes) s << "note: " << n << "\n";
   return s.str();
 }

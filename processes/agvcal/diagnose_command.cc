@@ -1,3 +1,4 @@
+#include <algorithm>
 #include <cstdio>
 #include <filesystem>
 #include <iostream>
@@ -14,7 +15,7 @@ namespace agvcal_cli {
 
 namespace {
 const char* kUsage = R"(usage: agvcal diagnose ROBOT.yaml LOG [--sim SIM_LOG] [--out REPORT.json] [--report DIR]
-                       [--write-sim SIM.yaml] [--alpha A] [--block-s S] [--quiet]
+                       [--write-sim SIM.yaml] [--alpha A] [--block-s S] [--drift-window S] [--quiet]
 
 Compares the recording with the robot's calibrated model and names the physics
 the model leaves out (spec/effects.md): where and under what motion the residual
@@ -31,6 +32,8 @@ false-alarm rate over the whole catalogue, and proven on held-out data
                       the simulator's defaults; edit to match)
   --alpha A           family-wise false-alarm rate over all candidates (default 0.01)
   --block-s S         length of the alternating fit / held-out blocks (default 10 s)
+  --drift-window S    held-out dead reckoning is judged over windows of S seconds
+                      (default 5, at most --block-s)
   --quiet             no progress on stderr
 Exit status: 0 done (effects found or not); 2 unusable input; 3 the recording cannot
 determine the calibration itself; 1 internal error.
@@ -39,7 +42,7 @@ determine the calibration itself; 1 internal error.
 
 int Diagnose(int argc, char** argv) {
   const auto args = agvcal_process::ParseArgs(
-      argc, argv, 2, {"--sim", "--out", "--report", "--write-sim", "--alpha", "--block-s"}, {"--quiet"});
+      argc, argv, 2, {"--sim", "--out", "--report", "--write-sim", "--alpha", "--block-s", "--drift-window"}, {"--quiet"});
   if (const auto status = agvcal_process::CheckUsage(args, kUsage, 2)) return *status;
   const calib::RobotDescription robot = calib::LoadRobotFile(args.positional[0]);
   const std::string log_path = args.positional[1];
@@ -50,6 +53,9 @@ int Diagnose(int argc, char** argv) {
     throw calib::InputError("command line", "--alpha", "expected a number in (0, 1)");
   if (!(options.block_s >= 1.0))
     throw calib::InputError("command line", "--block-s", "expected at least 1 s");
+  options.drift_window_s = args.GetDouble("--drift-window", std::min(options.drift_window_s, options.block_s));
+  if (!(options.drift_window_s > 0 && options.drift_window_s <= options.block_s))
+    throw calib::InputError("command line", "--drift-window", "expected a length in (0, --block-s]");
   if (!args.Has("--quiet")) options.progress = [](const std::string& line) { std::cerr << line << "\n"; };
 
   const calib::DiagnoseReport report = calib::DiagnoseLog(robot, log_path, options);

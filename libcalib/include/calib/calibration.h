@@ -80,6 +80,22 @@ struct OdometryError {
   double error_per_metre = 0.0;      // sum of translation errors / distance
 };
 
+// One step of a stretch of consecutive sensor motions: the measured motion and the
+// model's error on it (measured minus predicted: x, y, theta).
+struct OdometryStep {
+  int64_t utime_start = 0, utime_end = 0;
+  Pose2 measured;
+  double error[3] = {0, 0, 0};
+};
+
+// The model's motion chained over windows of `window_s` of consecutive steps (a gap
+// between steps starts a new window) against the measured motion chained over the
+// same span. `keep_partial`: a window cut short by a gap or the end counts too.
+// Chaining lets systematic errors add up while a scan's registration error, shared
+// by the two motions either side of it, cancels.
+OdometryError OdometryErrorOverWindows(const std::vector<OdometryStep>& steps, double window_s,
+                                       bool keep_partial);
+
 struct HeldoutComparison {
   int intervals = 0;
   OdometryError nominal;     // robot file's nominal parameters and mount

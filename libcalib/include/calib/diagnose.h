@@ -40,6 +40,7 @@ namespace calib {
 struct DiagnoseOptions {
   double alpha = 0.01;       // family-wise false-alarm rate over all candidates
   double block_s = 10.0;     // length of the alternating fit / held-out blocks
+  double drift_window_s = 5.0;  // held-out drift windows (FoundEffect::heldout_drift_*)
   int hac_lags = 4;          // Newey-West lags (neighbouring intervals share a scan)
   std::function<void(const std::string&)> progress;
 };
@@ -105,6 +106,18 @@ struct FoundEffect {
   // Held-out RMS of `component` where the effect stands out (`where`), and over all held-out data.
   double heldout_rms_before = 0, heldout_rms_after = 0;
   double heldout_rms_all_before = 0, heldout_rms_all_after = 0;
+  // Dead-reckoning drift over `drift_window_s` of consecutive held-out motion (the model
+  // chained against the measured motion chained, calibration.h OdometryErrorOverWindows),
+  // RMS of the translation or heading error per window. Per interval the noise is large
+  // against a small effect; chained, the effect adds up and a scan's registration error
+  // cancels. Actuation effects (compared with the encoders, not chained) leave it empty.
+  std::string drift_component;  // translation, heading or "" (not measured)
+  double drift_window_s = 0, heldout_drift_before = 0, heldout_drift_after = 0;
+  int drift_windows = 0;
+  // The held-out measure that judges the effect: "drift", or "per_interval" (the
+  // `heldout_rms_*`) for effects that cancel over a wheel revolution (eccentricity) or
+  // are not chained (actuation).
+  std::string heldout_measure = "per_interval";
   std::vector<TimeSpan> where;
   std::string regime;     // the motion under which it shows, in words
   std::string regressor;  // what the signature is binned by
@@ -149,6 +162,7 @@ struct DiagnoseReport {
   std::vector<DiagnosedInterval> intervals;
   double heldout_rms_before[3] = {0, 0, 0}, heldout_rms_after[3] = {0, 0, 0};
   double heldout_chi2_before = 0, heldout_chi2_after = 0;  // per held-out interval
+  OdometryError heldout_drift_before, heldout_drift_after;  // over drift_window_s windows
   int fit_intervals = 0, heldout_intervals = 0, outliers = 0;
   double variance_factor = 1;
   // Actuation layer time series (for plots): utime, measured, predicted before/after.
