@@ -203,10 +203,10 @@ def main():
              "Magnitudes are twice the median `detectable` size of the drive's no-effect controls",
              "(scan_distortion: a real 50 ms scan; steering_rate_limit: half the commanded steering rate;",
              "drive_lag: 20 ms, a fifth of a typical drive's response time).",
-             "The held-out measure (REPORT.json `heldout_measure`): dead-reckoning drift over 5 s windows of",
+             "The held-out measure (REPORT.json `heldout_measure`): dead-reckoning drift over 2 s windows of",
              "held-out motion for effects that add up along the way; the per-interval residual where the",
              "effect acts for wheel eccentricity (it cancels over a revolution) and the actuation effects.", "",
-             "| drive | truth | size | runs | named correctly | other effect named | of which reported indistinguishable from the truth | parameter within 20 % or 2σ | held-out error ≥ 20 % lower (its measure) | median reduction: drift over 5 s | median reduction: per interval where it acts |",
+             "| drive | truth | size | runs | named correctly | other effect named | of which reported indistinguishable from the truth | parameter within 20 % or 2σ | held-out error ≥ 20 % lower (its measure) | median reduction: drift over 2 s | median reduction: per interval where it acts |",
              "|---|---|---|---|---|---|---|---|---|---|---|"]
     confusion = ["", "## What was named", "",
                  "| drive | truth | " + " | ".join(catalogue) + " | nothing | errors |",

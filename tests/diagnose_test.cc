@@ -123,7 +123,7 @@ TEST(Diagnose, LongitudinalSlipOnDifferentialDrive) {
 }
 
 // A lateral slip at the concealed-effect suite's size (twice the smallest detectable):
-// per interval it hides in the scan matcher's noise, over 5 s of dead reckoning it does not.
+// per interval it hides in the scan matcher's noise, over 2 s of dead reckoning it does not.
 TEST(Diagnose, SmallLateralSlipShowsInHeldoutDrift) {
   SimConfig c = Sim("diff_robot", 21);
   c.effects.lateral_slip_gain = 0.0069;

@@ -250,6 +250,8 @@ OdometryError OdometryErrorOverWindows(const std::vector<OdometryStep>& steps, d
     sum_t2 += t * t;
     sum_t += t;
     sum_h2 += d.theta * d.theta;
+    out.window_translation_m.push_back(t);
+    out.window_heading_rad.push_back(std::abs(d.theta));
     out.distance_m += distance;
     ++out.windows;
     open = false;

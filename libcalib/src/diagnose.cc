@@ -13,6 +13,7 @@
 #include "calib/errors.h"
 #include "calib/laser_scan.h"
 #include "calib/messages.h"
+#include "calib/recalibration.h"
 #include "calib/recording.h"
 #include "calib/solve_log.h"
 #include "diagnose_internal.h"
@@ -116,6 +117,7 @@ using namespace diag;
 constexpr double kOutlierChi2 = 50.0;  // 3 dof, p ~ 1e-10 at the robust scale: failed matches only
 constexpr double kChi2Median3 = 2.366;
 constexpr double kHeldoutZ = 1.645;  // one-sided 5 % on the held-out blocks
+constexpr double kDriftP = 0.01;     // one-sided level of the held-out drift confirmation
 
 struct Model {
   double params[5] = {0, 0, 0, 0, 0};
@@ -926,6 +928,19 @@ DiagnoseReport Diagnoser::Select(const Model& start, const CalibrationResult& ca
     }
     return v > 0 && sum / std::sqrt(v) > kHeldoutZ;
   };
+  // Or as dead reckoning: with the effect, the held-out drift is lower window by window (paired
+  // one-sided t-test, level kDriftP, stricter than the score test's since either confirms). A
+  // small effect that biases every interval the same way hides in each interval's noise but
+  // adds up over a window (docs/mismatch.md).
+  auto drift_confirmed = [&](const Fit& before, const Fit& after, bool heading) {
+    const OdometryError b = HeldoutDrift(before.m), a = HeldoutDrift(after.m);
+    if (b.windows < 5) return false;
+    return heading ? TestImprovement(b.window_heading_rad, a.window_heading_rad, kDriftP, 0.0).significant
+                   : TestImprovement(b.window_translation_m, a.window_translation_m, kDriftP, 0.0).significant;
+  };
+  auto heldout_confirms = [&](const Candidate& c, const Fit& before, const Fit& after) {
+    return confirmed(before, after) || drift_confirmed(before, after, Localize(c, after.m, before.m).comp == 2);
+  };
   std::vector<CandidateOutcome> outcomes(cands.size());
   std::vector<bool> eligible(cands.size(), false);
   for (std::size_t j = 0; j < cands.size(); ++j) {
@@ -941,13 +956,18 @@ DiagnoseReport Diagnoser::Select(const Model& start, const CalibrationResult& ca
     const double sigma = std::sqrt(std::max(var, 0.0));
     o.estimate = {c.beta.size() == 2 ? std::hypot(f.m.beta[c.beta[0]], f.m.beta[c.beta[1]]) : f.m.beta[c.beta[0]], sigma};
     o.detectable = (NormalUpper(alpha_odo / m_odo / 2) + NormalUpper(0.2)) * sigma;
-    const double heldout_gain = gain(f0, f), span_gain = Localize(c, f.m, f0.m).span_gain();
+    const Localized where = Localize(c, f.m, f0.m);
+    const double heldout_gain = gain(f0, f), span_gain = where.span_gain();
     // The Wald statistic rests on a linearisation; where the model is far from linear in the
     // parameter (a lag near its bound) it can overstate the evidence: the fit must also pay
     // for its parameter in BIC. Not for the time offset, whose chi-square drop is shrunk by
     // encoder noise in the regressor (its Wald uses the instrument, see diagnose_model.h).
     const bool bic_ok = c.beta[0] == kTimeOffset || o.delta_bic < 0;
-    eligible[j] = p_adj[j] < alpha_odo && confirmed(f0, f) && bic_ok;
+    // The held-out drift test needs no BIC: a smooth regressor against noise that cancels
+    // between neighbouring intervals (a shared scan) makes the Wald larger than the plain
+    // chi-square drop for good reason, and data the fit never saw is the stronger check.
+    eligible[j] = p_adj[j] < alpha_odo &&
+                  ((confirmed(f0, f) && bic_ok) || drift_confirmed(f0, f, where.comp == 2));
     if (p_adj[j] < alpha_odo && !eligible[j]) {
       std::ostringstream why;
       why.precision(3);
@@ -980,7 +1000,7 @@ DiagnoseReport Diagnoser::Select(const Model& start, const CalibrationResult& ca
       for (int b : cands[j].beta) startm.beta[b] = single[j].m.beta[b];
       Fit f = FitModel(startm, free, cands[j].beta);
       const double level = alpha_odo / double(m_odo - chosen.size());
-      if (f.p < level && confirmed(current, f) && (best < 0 || f.wald > best_fit.wald)) {
+      if (f.p < level && heldout_confirms(cands[j], current, f) && (best < 0 || f.wald > best_fit.wald)) {
         best = int(j);
         best_fit = f;
       }
@@ -1007,7 +1027,7 @@ DiagnoseReport Diagnoser::Select(const Model& start, const CalibrationResult& ca
       const Fit without = FitModel(startm, others, {});
       const Fit with = FitModel(current.m, current.free, c.beta);
       const double level = alpha_odo / double(m_odo - chosen.size() + 1);
-      if (with.p < level && confirmed(without, with)) {
+      if (with.p < level && heldout_confirms(c, without, with)) {
         chosen_p[n] = with.p;
         chosen_wald[n] = with.wald;
         continue;

@@ -33,7 +33,7 @@ false-alarm rate over the whole catalogue, and proven on held-out data
   --alpha A           family-wise false-alarm rate over all candidates (default 0.01)
   --block-s S         length of the alternating fit / held-out blocks (default 10 s)
   --drift-window S    held-out dead reckoning is judged over windows of S seconds
-                      (default 5, at most --block-s)
+                      (default 2, at most --block-s)
   --quiet             no progress on stderr
 Exit status: 0 done (effects found or not); 2 unusable input; 3 the recording cannot
 determine the calibration itself; 1 internal error.

@@ -78,6 +78,7 @@ struct OdometryError {
   double rms_translation_m = 0.0;    // per window
   double rms_heading_rad = 0.0;      // per window
   double error_per_metre = 0.0;      // sum of translation errors / distance
+  std::vector<double> window_translation_m, window_heading_rad;  // each window's error
 };
 
 // One step of a stretch of consecutive sensor motions: the measured motion and the

@@ -40,7 +40,7 @@ namespace calib {
 struct DiagnoseOptions {
   double alpha = 0.01;       // family-wise false-alarm rate over all candidates
   double block_s = 10.0;     // length of the alternating fit / held-out blocks
-  double drift_window_s = 5.0;  // held-out drift windows (FoundEffect::heldout_drift_*)
+  double drift_window_s = 2.0;  // held-out drift windows (FoundEffect::heldout_drift_*)
   int hac_lags = 4;          // Newey-West lags (neighbouring intervals share a scan)
   std::function<void(const std::string&)> progress;
 };
