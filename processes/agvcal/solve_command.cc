@@ -103,9 +103,21 @@ int Solve(int argc, char** argv) {
     std::printf("\n");
   }
   if (result.heldout) {
-    std::printf("held-out odometry error per metre: nominal %.4f, calibrated %.4f (%d windows)\n",
-                result.heldout->nominal.error_per_metre, result.heldout->calibrated.error_per_metre,
-                result.heldout->calibrated.windows);
+    const calib::HeldoutComparison& h = *result.heldout;
+    std::printf("held-out odometry error per metre: nominal %.4f, calibrated %.4f (%d windows of %.2f m)\n",
+                h.nominal.error_per_metre, h.calibrated.error_per_metre, h.calibrated.windows, h.window_m);
+    std::printf("  calibrated better in %d of %d windows (sign test p = %.3g); end error %+.4f ± %.4f m\n",
+                h.paired.second_better, h.paired.windows - h.paired.ties, h.paired.sign_test_p,
+                h.paired.mean_difference_m, h.paired.difference_sem_m);
+    std::printf("  %s: fit half %.3g..%.3g, held-out %.3g..%.3g, %.0f %% of held-out intervals outside the fit's range\n",
+                h.coverage.regressor.c_str(), h.coverage.fit_low, h.coverage.fit_high, h.coverage.heldout_low,
+                h.coverage.heldout_high, 100 * h.coverage.heldout_outside);
+    if (h.paired_within_fit_range.windows < h.paired.windows) {
+      std::printf("  windows inside the fit's range: calibrated better in %d of %d (sign test p = %.3g)\n",
+                  h.paired_within_fit_range.second_better,
+                  h.paired_within_fit_range.windows - h.paired_within_fit_range.ties,
+                  h.paired_within_fit_range.sign_test_p);
+    }
   }
   if (args.Has("--out")) calib::WriteFileAtomically(args.Get("--out", ""), calib::CalibrationResultJson(result));
   if (args.Has("--write-robot")) {
