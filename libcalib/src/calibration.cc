@@ -406,9 +406,11 @@ MotionCoverage CompareMotion(DriveType drive, const WheelTrack& wheels,
   c.fit_high = Percentile(fit, 0.99);
   c.heldout_low = Percentile(heldout, 0.01);
   c.heldout_high = Percentile(heldout, 0.99);
+  // A margin of 2 % of the range, so that one count of a coarse encoder past it is not news.
+  const double margin = 0.02 * (c.fit_high - c.fit_low);
   int outside = 0;
   for (std::size_t k = 0; k < heldout.size(); ++k) {
-    if (heldout[k] >= c.fit_low && heldout[k] <= c.fit_high) continue;
+    if (heldout[k] >= c.fit_low - margin && heldout[k] <= c.fit_high + margin) continue;
     ++outside;
     c.outside_spans.emplace_back(heldout_intervals[k]->motion->utime_start, heldout_intervals[k]->motion->utime_end);
   }

@@ -134,7 +134,7 @@ PairedComparison ComparePaired(const OdometryError& first, const OdometryError& 
 // Where the held-out half drove motions the fit half did not: the share of held-out intervals
 // whose regressor (differential: the share of turning in the wheel rotations, -1..1; steered
 // drives: the raw steering angle of the first steered wheel) lies outside the
-// range of the fit half's central 98 %.
+// range of the fit half's central 98 % (widened by 2 % of its width).
 struct MotionCoverage {
   std::string regressor;          // "turn_share" (differential) or "steer" (rad)
   double fit_low = 0.0, fit_high = 0.0;          // 1st and 99th percentile over the fit half
