@@ -139,7 +139,7 @@ struct MotionCoverage {
   std::string regressor;          // "turn_share" (differential) or "steer" (rad)
   double fit_low = 0.0, fit_high = 0.0;          // 1st and 99th percentile over the fit half
   double heldout_low = 0.0, heldout_high = 0.0;  // the same over the held-out half
-  double heldout_outside = 0.0;   // share of held-out intervals outside [fit_low, fit_high]
+  double heldout_outside = 0.0;   // share of held-out intervals outside [fit_low, fit_high] (+ margin)
   std::vector<std::pair<int64_t, int64_t>> outside_spans;  // those intervals (utime start, end)
 };
 
