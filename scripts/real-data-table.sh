@@ -1,6 +1,8 @@
 #!/usr/bin/env bash
 # Calibrates every real recording of ../shared/data on the first half and compares the
-# calibrated with the nominal model's odometry on the second half (docs/calibration.md):
+# calibrated with the nominal model's odometry on the second half, window by window with a
+# sign test, and says how much of the second half drove outside the first's range
+# (docs/calibration.md):
 #   scripts/real-data-table.sh [WORKDIR]
 # Prints a Markdown table; imports into WORKDIR (default a temporary directory).
 set -uo pipefail
@@ -11,8 +13,8 @@ mkdir -p "$work"
 robots=$here/config/robots/datasets
 "$here/scripts/import-datasets.sh" "$work" > "$work/import.txt" || { cat "$work/import.txt"; exit 2; }
 
-echo "| recording | robot file | source | parameters (nominal → calibrated ± 1σ) | held-out error per metre, nominal → calibrated |"
-echo "|---|---|---|---|---|"
+echo "| recording | robot file | source | parameters (nominal → calibrated ± 1σ) | held-out error per metre, nominal → calibrated | windows × length | calibrated better (sign test p) | held-out outside the fit's range |"
+echo "|---|---|---|---|---|---|---|---|"
 for log in "$work"/*.log; do
   name=$(basename "$log" .log)
   case $name in
@@ -38,11 +40,16 @@ import json, sys
 r = json.load(open(sys.argv[1]))
 src = ('lidar2d' if 'lidar2d' in r else 'pose') + sys.argv[4]
 params = ', '.join(f"{k} {v['nominal']:.4g} → {v['value']:.4g} ± {v['std']:.2g}" for k, v in r['params'].items())
-h = r.get('heldout', {})
+h = r['heldout']
+p, c = h['paired'], h['motion']
 print(f"| {sys.argv[2]} | {sys.argv[3]} | {src} | {params} | "
-      f"{h['nominal']['error_per_metre']:.4f} → {h['calibrated']['error_per_metre']:.4f} |")
+      f"{h['nominal']['error_per_metre']:.4f} → {h['calibrated']['error_per_metre']:.4f} | "
+      f"{h['calibrated']['windows']} × {h['window_m']:.2f} m | "
+      f"{p['calibrated_better']} of {p['windows'] - p['ties']} (p = {p['sign_test_p']:.2g}) | "
+      f"{100 * c['heldout_outside_fit']:.0f} % ({c['regressor']} {c['heldout_range'][0]:.2f}..{c['heldout_range'][1]:.2f}, "
+      f"fit {c['fit_range'][0]:.2f}..{c['fit_range'][1]:.2f}) |")
 PY
   else
-    echo "| $name | $robot | | exit $status: $(head -c 200 "$work/$name.err" | tr '\n|' ' /') | |"
+    echo "| $name | $robot | | exit $status: $(head -c 200 "$work/$name.err" | tr '\n|' ' /') | | | | |"
   fi
 done

@@ -935,8 +935,12 @@ DiagnoseReport Diagnoser::Select(const Model& start, const CalibrationResult& ca
   auto drift_confirmed = [&](const Fit& before, const Fit& after, bool heading) {
     const OdometryError b = HeldoutDrift(before.m), a = HeldoutDrift(after.m);
     if (b.windows < 5) return false;
-    return heading ? TestImprovement(b.window_heading_rad, a.window_heading_rad, kDriftP, 0.0).significant
-                   : TestImprovement(b.window_translation_m, a.window_translation_m, kDriftP, 0.0).significant;
+    auto errors = [heading](const OdometryError& e) {
+      std::vector<double> out;
+      for (const WindowError& w : e.per_window) out.push_back(heading ? std::abs(w.heading_rad) : w.translation_m);
+      return out;
+    };
+    return TestImprovement(errors(b), errors(a), kDriftP, 0.0).significant;
   };
   auto heldout_confirms = [&](const Candidate& c, const Fit& before, const Fit& after) {
     return confirmed(before, after) || drift_confirmed(before, after, Localize(c, after.m, before.m).comp == 2);

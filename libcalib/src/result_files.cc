@@ -23,7 +23,12 @@ nlohmann::json OdometryJson(const OdometryError& e) {
           {"distance_m", e.distance_m},
           {"rms_translation_m", e.rms_translation_m},
           {"rms_heading_rad", e.rms_heading_rad},
-          {"error_per_metre", e.error_per_metre}};
+          {"error_per_metre", e.error_per_metre},
+          {"per_window_translation_m", [&] {
+             std::vector<double> v;
+             for (const WindowError& w : e.per_window) v.push_back(w.translation_m);
+             return v;
+           }()}};
 }
 
 }  // namespace
@@ -67,8 +72,24 @@ std::string CalibrationResultJson(const CalibrationResult& r) {
   if (!r.closed_form_note.empty()) j["closed_form_note"] = r.closed_form_note;
   if (r.heldout) {
     j["heldout"] = {{"intervals", r.heldout->intervals},
+                    {"window_m", r.heldout->window_m},
                     {"nominal", OdometryJson(r.heldout->nominal)},
                     {"calibrated", OdometryJson(r.heldout->calibrated)}};
+    auto paired = [](const PairedComparison& p) {
+      return nlohmann::json{{"windows", p.windows},
+                            {"calibrated_better", p.second_better},
+                            {"ties", p.ties},
+                            {"sign_test_p", p.sign_test_p},
+                            {"mean_difference_m", p.mean_difference_m},
+                            {"difference_sem_m", p.difference_sem_m}};
+    };
+    j["heldout"]["paired"] = paired(r.heldout->paired);
+    j["heldout"]["paired_within_fit_range"] = paired(r.heldout->paired_within_fit_range);
+    const MotionCoverage& c = r.heldout->coverage;
+    j["heldout"]["motion"] = {{"regressor", c.regressor},
+                              {"fit_range", {c.fit_low, c.fit_high}},
+                              {"heldout_range", {c.heldout_low, c.heldout_high}},
+                              {"heldout_outside_fit", c.heldout_outside}};
   }
   return j.dump(2) + "\n";
 }

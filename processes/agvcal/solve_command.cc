@@ -12,7 +12,8 @@ namespace agvcal_cli {
 
 namespace {
 const char* kUsage = R"(usage: agvcal solve ROBOT.yaml LOG [--out RESULT.json] [--write-robot CALIBRATED.yaml]
-                    [--source lidar2d|pose|imu] [--time-offset] [--fit-fraction F] [--quiet]
+                    [--source lidar2d|pose|imu] [--time-offset] [--fit-fraction F]
+                    [--heldout-windows N] [--quiet]
                     [--distance METRES] [--distance-std METRES] [--turn-angle DEG]
 
 Calibrates the drive parameters of ROBOT.yaml and the mount of its 2D lidar
@@ -32,7 +33,9 @@ time offset. Prints a summary; RESULT.json follows spec/cli.md.
                              gyro scale (without it the scale stays at imu.gyro_scale)
   --time-offset              also estimate the lidar-to-wheel time offset
   --fit-fraction F           fit on the first fraction F of the recording, and compare the
-                             calibrated with the nominal model's odometry on the rest
+                             calibrated with the nominal model's odometry on the rest:
+                             windows of equal path, the longest that give N windows
+                             (--heldout-windows, default 20), paired by a sign test
   --quiet                    no progress on stderr
 Exit status: 0 done; 2 unusable input; 3 the recording cannot determine a
 parameter (stderr names it and the motion to add); 1 internal error.
@@ -46,7 +49,8 @@ void PrintEstimate(const std::string& name, const calib::Estimate& e) {
 int Solve(int argc, char** argv) {
   const auto args = agvcal_process::ParseArgs(
       argc, argv, 2,
-      {"--out", "--write-robot", "--source", "--fit-fraction", "--distance", "--distance-std", "--turn-angle"},
+      {"--out", "--write-robot", "--source", "--fit-fraction", "--heldout-windows", "--distance", "--distance-std",
+       "--turn-angle"},
       {"--time-offset", "--quiet"});
   if (const auto status = agvcal_process::CheckUsage(args, kUsage, 2)) return *status;
   const calib::RobotDescription robot = calib::LoadRobotFile(args.positional[0]);
@@ -58,6 +62,12 @@ int Solve(int argc, char** argv) {
     options.calibration.fit_fraction = args.GetDouble("--fit-fraction", 1.0);
     if (!(options.calibration.fit_fraction > 0.0 && options.calibration.fit_fraction <= 1.0))
       throw calib::InputError("command line", "--fit-fraction", "expected a number in (0, 1]");
+  }
+  if (args.Has("--heldout-windows")) {
+    const double n = args.GetDouble("--heldout-windows", 20);
+    if (!(n >= 1 && n <= 1000 && n == std::floor(n)))
+      throw calib::InputError("command line", "--heldout-windows", "expected a whole number in [1, 1000]");
+    options.calibration.heldout_windows = static_cast<int>(n);
   }
   if (args.Has("--source")) {
     const std::string source = args.Get("--source", "");
@@ -103,9 +113,21 @@ int Solve(int argc, char** argv) {
     std::printf("\n");
   }
   if (result.heldout) {
-    std::printf("held-out odometry error per metre: nominal %.4f, calibrated %.4f (%d windows)\n",
-                result.heldout->nominal.error_per_metre, result.heldout->calibrated.error_per_metre,
-                result.heldout->calibrated.windows);
+    const calib::HeldoutComparison& h = *result.heldout;
+    std::printf("held-out odometry error per metre: nominal %.4f, calibrated %.4f (%d windows of %.2f m)\n",
+                h.nominal.error_per_metre, h.calibrated.error_per_metre, h.calibrated.windows, h.window_m);
+    std::printf("  calibrated better in %d of %d windows (sign test p = %.3g); end error %+.4f ± %.4f m\n",
+                h.paired.second_better, h.paired.windows - h.paired.ties, h.paired.sign_test_p,
+                h.paired.mean_difference_m, h.paired.difference_sem_m);
+    std::printf("  %s: fit half %.3g..%.3g, held-out %.3g..%.3g, %.0f %% of held-out intervals outside the fit's range\n",
+                h.coverage.regressor.c_str(), h.coverage.fit_low, h.coverage.fit_high, h.coverage.heldout_low,
+                h.coverage.heldout_high, 100 * h.coverage.heldout_outside);
+    if (h.paired_within_fit_range.windows < h.paired.windows) {
+      std::printf("  windows inside the fit's range: calibrated better in %d of %d (sign test p = %.3g)\n",
+                  h.paired_within_fit_range.second_better,
+                  h.paired_within_fit_range.windows - h.paired_within_fit_range.ties,
+                  h.paired_within_fit_range.sign_test_p);
+    }
   }
   if (args.Has("--out")) calib::WriteFileAtomically(args.Get("--out", ""), calib::CalibrationResultJson(result));
   if (args.Has("--write-robot")) {

@@ -51,6 +51,22 @@ head -c 100000 "$log" > "$TMP/truncated.log"
 expect_status 2 "truncated log" "$BUILD/agvcal" solve "$robot" "$TMP/truncated.log" --quiet
 stderr_has "truncated.log"
 expect_status 2 "unknown option" "$BUILD/agvcal" solve "$robot" "$log" --bogus
+expect_status 2 "--heldout-windows 0" "$BUILD/agvcal" solve "$robot" "$log" --fit-fraction 0.5 --heldout-windows 0
+stderr_has "heldout-windows"
+
+# Held-out comparison: path windows, the sign test, the motion coverage.
+expect_status 0 "agvcal solve --fit-fraction 0.5" \
+  "$BUILD/agvcal" solve "$robot" "$log" --quiet --fit-fraction 0.5 --out "$TMP/half.json"
+python3 - "$TMP/half.json" <<'PY' && pass "held-out: 20 path windows, calibrated better, sign test" || fail "held-out: $(python3 -c "import json,sys; print(json.load(open(sys.argv[1])).get('heldout'))" "$TMP/half.json")"
+import json, sys
+h = json.load(open(sys.argv[1]))["heldout"]
+p = h["paired"]
+assert h["calibrated"]["windows"] >= 20 and p["windows"] == h["calibrated"]["windows"], h
+assert h["window_m"] > 0 and len(h["nominal"]["per_window_translation_m"]) == p["windows"]
+assert p["calibrated_better"] >= 0.8 * p["windows"] and p["sign_test_p"] < 0.01, p
+assert h["calibrated"]["error_per_metre"] < h["nominal"]["error_per_metre"]
+assert h["motion"]["regressor"] == "steer" and 0 <= h["motion"]["heldout_outside_fit"] <= 1
+PY
 expect_status 0 "--help" "$BUILD/agvcal" solve --help
 expect_status 0 "solver --help" "$BUILD/agvcal-solver" --help
 finish

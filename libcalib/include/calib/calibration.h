@@ -21,6 +21,7 @@
 #include <map>
 #include <optional>
 #include <string>
+#include <utility>
 #include <vector>
 
 #include <Eigen/Core>
@@ -43,7 +44,9 @@ struct CalibrationOptions {
   // Fit on the first `fit_fraction` of the recording's intervals; the rest is
   // held out to compare the calibrated model with the nominal one.
   double fit_fraction = 1.0;
-  double heldout_window_s = 10.0;   // length of the odometry windows compared on held-out data
+  // Held-out windows: the longest equal lengths of path that give at least this many windows
+  // (PathWindowLength), so the paired comparison can show a difference beyond chance.
+  int heldout_windows = 20;
   bool check_observability = true;  // throw UnobservableError when a parameter is undetermined
 };
 
@@ -70,15 +73,23 @@ struct ResidualSummary {
   double variance_factor = 1.0;  // chi2 / dof: how far the matcher's covariances were off
 };
 
-// Odometry over held-out windows: the model's prediction chained over
-// `heldout_window_s` against the sensor's measured motion over the same span.
+// One window of chained odometry: its span, the distance travelled and the end-pose error.
+struct WindowError {
+  int64_t utime_start = 0, utime_end = 0;
+  double distance_m = 0.0;
+  double translation_m = 0.0;  // |position error| at the window's end
+  double heading_rad = 0.0;    // heading error at the window's end
+};
+
+// Odometry over held-out windows: the model's prediction chained over a window
+// against the sensor's measured motion over the same span.
 struct OdometryError {
   int windows = 0;
+  std::vector<WindowError> per_window;  // in time order
   double distance_m = 0.0;           // travelled in those windows
   double rms_translation_m = 0.0;    // per window
   double rms_heading_rad = 0.0;      // per window
   double error_per_metre = 0.0;      // sum of translation errors / distance
-  std::vector<double> window_translation_m, window_heading_rad;  // each window's error
 };
 
 // One step of a stretch of consecutive sensor motions: the measured motion and the
@@ -97,10 +108,51 @@ struct OdometryStep {
 OdometryError OdometryErrorOverWindows(const std::vector<OdometryStep>& steps, double window_s,
                                        bool keep_partial);
 
+// The same as OdometryErrorOverWindows with windows of `window_m` of measured path instead of
+// time. A window cut short by a gap or the end counts when it holds at least half that path.
+// Path windows compare like with like across robots and speeds (a robot standing still adds
+// no window) and make the count of windows a matter of the data's coverage alone.
+OdometryError OdometryErrorOverPath(const std::vector<OdometryStep>& steps, double window_m);
+
+// The longest path window (among the path's length times 0.95^k) that gives at least
+// `min_windows` windows of `steps` (OdometryErrorOverPath's rule); the one with the most windows
+// when none does. It depends on the measured motions and their gaps only, not on a model.
+double PathWindowLength(const std::vector<OdometryStep>& steps, int min_windows);
+
+// Two models' errors over the same windows, window by window: the paired comparison that
+// says whether one is better beyond chance.
+struct PairedComparison {
+  int windows = 0;
+  int second_better = 0;           // windows where the second model's end error is smaller
+  int ties = 0;                    // equal within 1e-9 m (left out of the sign test)
+  double sign_test_p = 1.0;        // two-sided exact binomial test of "either is as likely better"
+  double mean_difference_m = 0.0;  // mean of (second - first) end translation error
+  double difference_sem_m = 0.0;   // its standard error
+};
+PairedComparison ComparePaired(const OdometryError& first, const OdometryError& second);
+
+// Where the held-out half drove motions the fit half did not: the share of held-out intervals
+// whose regressor (differential: the share of turning in the wheel rotations, -1..1; steered
+// drives: the raw steering angle of the first steered wheel) lies outside the
+// range of the fit half's central 98 % (widened by 2 % of its width).
+struct MotionCoverage {
+  std::string regressor;          // "turn_share" (differential) or "steer" (rad)
+  double fit_low = 0.0, fit_high = 0.0;          // 1st and 99th percentile over the fit half
+  double heldout_low = 0.0, heldout_high = 0.0;  // the same over the held-out half
+  double heldout_outside = 0.0;   // share of held-out intervals outside [fit_low, fit_high] (+ margin)
+  std::vector<std::pair<int64_t, int64_t>> outside_spans;  // those intervals (utime start, end)
+};
+
 struct HeldoutComparison {
   int intervals = 0;
+  double window_m = 0.0;     // path length of a window
   OdometryError nominal;     // robot file's nominal parameters and mount
   OdometryError calibrated;  // the calibration's
+  PairedComparison paired;   // first nominal, second calibrated
+  MotionCoverage coverage;
+  // The same over the windows without an interval outside the fit half's range: how the
+  // models compare where the calibration did not extrapolate.
+  PairedComparison paired_within_fit_range;
 };
 
 // What the IMU-referenced calibration adds (imu_calibration.h): the gyro's
