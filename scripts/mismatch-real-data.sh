@@ -9,20 +9,14 @@ agvcal=${AGVCAL_BIN:-$here/build}/agvcal
 work=${1:-$(mktemp -d)}
 mkdir -p "$work"
 robots=$here/config/robots/datasets
+source "$here/scripts/dataset-robots.bash"
 ls "$work"/*.log > /dev/null 2>&1 || "$here/scripts/import-datasets.sh" "$work" > "$work/import.txt" || { cat "$work/import.txt"; exit 2; }
 
 echo "| recording | source | verdict | effects found (± 1σ, p after correction) | held-out RMS where they act, before → after | not identifiable | unexplained |"
 echo "|---|---|---|---|---|---|---|"
 for log in "$work"/*.log; do
   name=$(basename "$log" .log)
-  case $name in
-    mit_csail) robot=mit_csail.yaml ;;
-    mines_*) robot=mines_rover.yaml ;;
-    lego_*) robot=lego_robot.yaml ;;
-    optiodom_tricycle_*) robot=optiodom_tricycle.yaml ;;
-    optiodom_diff_*) robot=optiodom_diff.yaml ;;
-    *) continue ;;
-  esac
+  robot=$(dataset_robot "$name") || continue
   out=$work/$name.report.json
   if "$agvcal" diagnose "$robots/$robot" "$log" --quiet --out "$out" --report "$work/$name.report" \
        > "$work/$name.diag.txt" 2> "$work/$name.diag.err"; then

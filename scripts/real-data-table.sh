@@ -11,20 +11,14 @@ agvcal=${AGVCAL_BIN:-$here/build}/agvcal
 work=${1:-$(mktemp -d)}
 mkdir -p "$work"
 robots=$here/config/robots/datasets
+source "$here/scripts/dataset-robots.bash"
 "$here/scripts/import-datasets.sh" "$work" > "$work/import.txt" || { cat "$work/import.txt"; exit 2; }
 
 echo "| recording | robot file | source | parameters (nominal → calibrated ± 1σ) | held-out error per metre, nominal → calibrated | windows × length | calibrated better (sign test p) | held-out outside the fit's range |"
 echo "|---|---|---|---|---|---|---|---|"
 for log in "$work"/*.log; do
   name=$(basename "$log" .log)
-  case $name in
-    mit_csail) robot=mit_csail.yaml ;;
-    mines_*) robot=mines_rover.yaml ;;
-    lego_*) robot=lego_robot.yaml ;;
-    optiodom_tricycle_*) robot=optiodom_tricycle.yaml ;;
-    optiodom_diff_*) robot=optiodom_diff.yaml ;;
-    *) continue ;;
-  esac
+  robot=$(dataset_robot "$name") || continue
   out=$work/$name.json
   solve() { "$agvcal" solve "$robots/$robot" "$log" --fit-fraction 0.5 --quiet --out "$out" "$@" \
               > "$work/$name.txt" 2> "$work/$name.err"; }

@@ -13,6 +13,7 @@
 #include <Eigen/Core>
 #include <ceres/jet.h>
 
+#include "calib/calibration.h"
 #include "calib/kinematics_generic.h"
 #include "calib/robot.h"
 #include "calib/wheel_track.h"
@@ -34,7 +35,7 @@ enum Beta {
 };
 
 constexpr double kHistoryS = 2.0;   // steering history kept before an interval (lag <= 0.25 s)
-constexpr double kMaxOffsetS = 0.5; // time offset search bound (real logs show 0.1-0.2 s)
+constexpr double kMaxOffsetS = kMaxTimeOffsetS;  // calibration.h
 
 // The encoder track with what the effect terms need per sample, in role order.
 struct Track {
