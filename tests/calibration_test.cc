@@ -34,8 +34,13 @@ SimConfig PoseSim(const std::string& name, uint64_t seed) {
   return config;
 }
 
-CalibrationData Collect(const MemorySink& sink, const RobotDescription& robot) {
-  CalibrationData data(robot);
+// The simulator's recording of `trajectory`, as the solver's input (wheels and poses).
+CalibrationData Record(const SimConfig& config, const std::string& trajectory) {
+  MemorySink sink;
+  OfflineRunOptions run;
+  run.trajectory = trajectory;
+  RunOffline(config, run, &sink);
+  CalibrationData data(config.robot);
   for (const LogEvent& e : sink.events) {
     if (e.channel == kWheelsChannel) {
       agvcal::wheel_state_t m;
@@ -60,11 +65,7 @@ class PoseCalibration : public ::testing::TestWithParam<Case> {};
 TEST_P(PoseCalibration, RecoversTruthWithHonestSigmas) {
   const Case c = GetParam();
   const SimConfig config = PoseSim(c.sim, 7);
-  MemorySink sink;
-  OfflineRunOptions run;
-  run.trajectory = c.trajectory;
-  RunOffline(config, run, &sink);
-  const CalibrationData data = Collect(sink, config.robot);
+  const CalibrationData data = Record(config, c.trajectory);
   const CalibrationResult r = Calibrate(config.robot, data.wheels(), data.motions(),
                                         MotionSource::kPose, CalibrationOptions{}, "sim");
   for (const auto& [name, e] : r.params) {
@@ -87,11 +88,7 @@ INSTANTIATE_TEST_SUITE_P(DriveTypes, PoseCalibration,
 
 TEST(Calibration, StraightOnlyIsRefusedNamingTheParameters) {
   const SimConfig config = PoseSim("forklift", 3);
-  MemorySink sink;
-  OfflineRunOptions run;
-  run.trajectory = "straight";
-  RunOffline(config, run, &sink);
-  const CalibrationData data = Collect(sink, config.robot);
+  const CalibrationData data = Record(config, "straight");
   try {
     Calibrate(config.robot, data.wheels(), data.motions(), MotionSource::kPose, CalibrationOptions{}, "sim");
     FAIL() << "a straight-only recording must be refused";
@@ -171,11 +168,7 @@ TEST(HeldoutWindows, SignTestIsTheExactBinomial) {
 // held-out half's larger steering angles are reported.
 TEST(HeldoutWindows, CalibratedBeatsNominalOnSimulatedHeldOutHalf) {
   const SimConfig config = PoseSim("forklift", 5);
-  MemorySink sink;
-  OfflineRunOptions run;
-  run.trajectory = "default";
-  RunOffline(config, run, &sink);
-  const CalibrationData data = Collect(sink, config.robot);
+  const CalibrationData data = Record(config, "default");
   CalibrationOptions options;
   options.fit_fraction = 0.5;
   const CalibrationResult r =
