@@ -34,6 +34,7 @@ class Feeder {
  public:
   Feeder(const calib::RobotDescription& robot, calib::FusedOdometry* fused) : robot_(robot), fused_(fused) {}
   void OnWheels(const lcm::ReceiveBuffer*, const std::string& channel, const agvcal::wheel_state_t* msg) {
+    ++wheels_;
     try {
       fused_->AddWheels(calib::WheelSampleFromMessage(*msg, robot_, channel));
     } catch (const std::exception& e) {
@@ -41,6 +42,7 @@ class Feeder {
     }
   }
   void OnImu(const lcm::ReceiveBuffer*, const std::string& channel, const agvcal::imu_t* msg) {
+    ++imu_;
     try {
       fused_->AddImu(calib::ImuSampleFromMessage(*msg, channel));
     } catch (const std::exception& e) {
@@ -48,6 +50,8 @@ class Feeder {
     }
   }
   int64_t rejected() const { return rejected_; }
+  int64_t wheels() const { return wheels_; }
+  int64_t imu() const { return imu_; }
 
  private:
   void Reject(const std::exception& e) {
@@ -55,7 +59,7 @@ class Feeder {
   }
   const calib::RobotDescription& robot_;
   calib::FusedOdometry* fused_;
-  int64_t rejected_ = 0;
+  int64_t rejected_ = 0, wheels_ = 0, imu_ = 0;
 };
 
 int Run(int argc, char** argv) {
@@ -95,8 +99,9 @@ int Run(int argc, char** argv) {
   }
   fused.Finish();
   publish();
-  std::cerr << "agvcal-fusion: stopped; " << published << " poses, " << feeder.rejected()
-            << " unusable messages\n";
+  // The counts received: compared with a recording's, they show a lost message.
+  std::cerr << "agvcal-fusion: stopped; " << published << " poses from " << feeder.wheels() << " wheel states and "
+            << feeder.imu() << " IMU samples, " << feeder.rejected() << " unusable messages\n";
   heartbeat.Beat("stopped", true /* force */);
   return calib::kExitOk;
 }
