@@ -22,29 +22,13 @@
 #include "calib/recording.h"
 #include "calib/sim_run.h"
 #include "calib/simulator.h"
+#include "sim_log.h"
 
 namespace calib {
 namespace {
 
-std::string Source(const std::string& relative) { return std::string(AGVCAL_SOURCE_DIR) + "/" + relative; }
-
-class SimLog {
- public:
-  explicit SimLog(const SimConfig& config, const std::string& trajectory = "default")
-      : path_("/tmp/agvcal_diagnose_test_" + std::to_string(::getpid()) + "_" + std::to_string(counter_++) + ".log") {
-    LogWriter writer(path_);
-    OfflineRunOptions run;
-    run.trajectory = trajectory;
-    RunOffline(config, run, &writer);
-    writer.Close();
-  }
-  ~SimLog() { std::remove(path_.c_str()); }
-  const std::string& path() const { return path_; }
-
- private:
-  static inline int counter_ = 0;
-  std::string path_;
-};
+using test_support::SimLog;
+using test_support::Source;
 
 SimConfig Sim(const std::string& name, uint64_t seed) {
   SimConfig config = LoadSimConfig(Source("config/sims/" + name + ".yaml"));

@@ -14,31 +14,14 @@
 #include "calib/recording.h"
 #include "calib/sim_run.h"
 #include "calib/simulator.h"
+#include "sim_log.h"
 #include "calib/solve_log.h"
 
 namespace calib {
 namespace {
 
-std::string Source(const std::string& relative) { return std::string(AGVCAL_SOURCE_DIR) + "/" + relative; }
-
-// A recording of the simulator in a temporary file, removed at the end of the test.
-class SimLog {
- public:
-  SimLog(const SimConfig& config, const std::string& trajectory)
-      : path_("/tmp/agvcal_solve_test_" + std::to_string(::getpid()) + "_" + std::to_string(counter_++) + ".log") {
-    LogWriter writer(path_);
-    OfflineRunOptions run;
-    run.trajectory = trajectory;
-    RunOffline(config, run, &writer);
-    writer.Close();
-  }
-  ~SimLog() { std::remove(path_.c_str()); }
-  const std::string& path() const { return path_; }
-
- private:
-  static inline int counter_ = 0;
-  std::string path_;
-};
+using test_support::SimLog;
+using test_support::Source;
 
 SimConfig LidarSim(const std::string& name, uint64_t seed) {
   SimConfig config = LoadSimConfig(Source("config/sims/" + name + ".yaml"));

@@ -1,0 +1,39 @@
+#pragma once
+// Test helpers shared by the tests that run the simulator into a recording file.
+
+#include <unistd.h>
+
+#include <cstdio>
+#include <string>
+
+#include "calib/recording.h"
+#include "calib/sim_run.h"
+#include "calib/simulator.h"
+
+namespace calib::test_support {
+
+// A file of the source tree (config, logs), by its path relative to the repository.
+inline std::string Source(const std::string& relative) { return std::string(AGVCAL_SOURCE_DIR) + "/" + relative; }
+
+// A recording of the simulator in a temporary file, removed at the end of the test.
+class SimLog {
+ public:
+  explicit SimLog(const SimConfig& config, const std::string& trajectory = "default")
+      : path_("/tmp/agvcal_test_" + std::to_string(::getpid()) + "_" + std::to_string(counter_++) + ".log") {
+    LogWriter writer(path_);
+    OfflineRunOptions run;
+    run.trajectory = trajectory;
+    RunOffline(config, run, &writer);
+    writer.Close();
+  }
+  ~SimLog() { std::remove(path_.c_str()); }
+  SimLog(const SimLog&) = delete;
+  SimLog& operator=(const SimLog&) = delete;
+  const std::string& path() const { return path_; }
+
+ private:
+  static inline int counter_ = 0;
+  std::string path_;
+};
+
+}  // namespace calib::test_support
