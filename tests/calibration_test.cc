@@ -3,7 +3,9 @@
 
 #include <gtest/gtest.h>
 
+#include <algorithm>
 #include <cmath>
+#include <cstdio>
 #include <string>
 
 #include "calib/calibration.h"
@@ -85,6 +87,64 @@ TEST_P(PoseCalibration, RecoversTruthWithHonestSigmas) {
 INSTANTIATE_TEST_SUITE_P(DriveTypes, PoseCalibration,
                          ::testing::Values(Case{"diff_robot", "default"}, Case{"forklift", "default"}),
                          [](const auto& info) { return info.param.sim; });
+
+// Poses at 20 Hz become motions of 0.2 s that follow each other without a gap, and chained
+// they give the motion from the first pose to the last.
+TEST(Calibration, PoseIntervalsJoinThePoseStream) {
+  PoseIntervals intervals;
+  std::vector<SensorMotion> motions;
+  agvcal::pose2d_t pose{};
+  for (int i = 0; i <= 40; ++i) {
+    pose.utime = 1'000'000 + 50'000 * i;
+    pose.x = 0.01 * i;
+    pose.y = 0.002 * i * i;
+    pose.theta = 0.03 * i;
+    if (auto m = intervals.Add(pose)) motions.push_back(*m);
+  }
+  ASSERT_EQ(motions.size(), 10u);
+  Pose2 chained{0, 0, 0};
+  for (std::size_t k = 0; k < motions.size(); ++k) {
+    EXPECT_EQ(motions[k].utime_end - motions[k].utime_start, 200'000);
+    if (k > 0) {
+      EXPECT_EQ(motions[k].utime_start, motions[k - 1].utime_end);
+    }
+    chained = Compose(chained, motions[k].delta);
+  }
+  const Pose2 expected = Between({0, 0, 0}, {pose.x, pose.y, pose.theta});
+  EXPECT_NEAR(chained.x, expected.x, 1e-12);
+  EXPECT_NEAR(chained.y, expected.y, 1e-12);
+  EXPECT_NEAR(chained.theta, expected.theta, 1e-12);
+}
+
+// Over 20 seeds the pose source's sigmas are honest: |error| / sigma within 3 for 95 % of
+// the drive parameters and mount values (issue 3 target). The poses are joined into
+// intervals of kMinPoseIntervalS, so this also checks the sandwich on the joined motions.
+TEST(Calibration, PoseSourceSigmasAreHonestOverTwentySeeds) {
+  for (const char* sim : {"diff_robot", "forklift"}) {
+    int values = 0, within3 = 0;
+    double worst = 0.0, sum_z2 = 0.0;
+    for (int seed = 1; seed <= 20; ++seed) {
+      const SimConfig config = PoseSim(sim, seed);
+      const CalibrationData data = Record(config, "default");
+      const CalibrationResult r = Calibrate(config.robot, data.wheels(), data.motions(), MotionSource::kPose,
+                                            CalibrationOptions{}, "sim");
+      const auto count = [&](const Estimate& e, double truth) {
+        const double z = std::abs(e.value - truth) / e.std;
+        ++values;
+        within3 += z <= 3.0 ? 1 : 0;
+        worst = std::max(worst, z);
+        sum_z2 += z * z;
+      };
+      for (const auto& [name, e] : r.params) count(e, config.true_params.at(name));
+      count(r.mount_x, config.true_pose.x);
+      count(r.mount_y, config.true_pose.y);
+      count(r.mount_yaw, config.true_pose.yaw);
+    }
+    std::printf("[ info     ] %s: %d of %d within 3 sigma, worst %.2f sigma, rms %.2f\n", sim, within3, values,
+                worst, std::sqrt(sum_z2 / values));
+    EXPECT_GE(within3, 0.95 * values) << sim;
+  }
+}
 
 TEST(Calibration, StraightOnlyIsRefusedNamingTheParameters) {
   const SimConfig config = PoseSim("forklift", 3);
@@ -186,6 +246,43 @@ TEST(HeldoutWindows, CalibratedBeatsNominalOnSimulatedHeldOutHalf) {
   EXPECT_NEAR(h.coverage.fit_high, 0.70, 0.01);
   EXPECT_NEAR(h.coverage.heldout_high, 1.00, 0.01);
   EXPECT_GT(h.coverage.heldout_outside, 0.3);
+  // The same robot in both halves: their own fits agree within their sigmas.
+  ASSERT_TRUE(h.halves.has_value());
+  EXPECT_GT(h.halves->p, 0.01) << "d2 " << h.halves->d2 << ", largest " << h.halves->largest;
+  EXPECT_EQ(h.halves->dof, 6);
+}
+
+// A recording whose second half comes from the robot with a 3 % longer wheelbase (another
+// load, say): the halves' own fits disagree far beyond their sigmas, and say where.
+TEST(HeldoutWindows, HalvesOfAChangedRobotDisagree) {
+  SimConfig changed = PoseSim("forklift", 6);
+  changed.true_params["wheelbase"] *= 1.03;
+  const SimConfig original = PoseSim("forklift", 5);
+  const CalibrationData first = Record(original, "default"), second = Record(changed, "default");
+  // The second recording follows the first one 1 s after its end, with no motion across the joint.
+  const int64_t shift = first.wheels().last_utime() + 1'000'000 - second.wheels().first_utime();
+  CalibrationData spliced(original.robot);
+  for (const WheelSample& w : first.wheels().samples()) spliced.AddWheels(w);
+  for (WheelSample w : second.wheels().samples()) {
+    w.utime += shift;
+    spliced.AddWheels(w);
+  }
+  for (const SensorMotion& m : first.motions()) spliced.AddMotion(m);
+  for (SensorMotion m : second.motions()) {
+    m.utime_start += shift;
+    m.utime_end += shift;
+    spliced.AddMotion(m);
+  }
+  CalibrationOptions options;
+  options.fit_fraction = 0.5;
+  const CalibrationResult r =
+      Calibrate(original.robot, spliced.wheels(), spliced.motions(), MotionSource::kPose, options, "sim");
+  ASSERT_TRUE(r.heldout.has_value() && r.heldout->halves.has_value());
+  const HalvesAgreement& a = *r.heldout->halves;
+  EXPECT_LT(a.p, 1e-6) << "d2 " << a.d2;
+  EXPECT_EQ(a.largest, "wheelbase");
+  EXPECT_NEAR(a.heldout_fit.at("wheelbase").value, changed.true_params.at("wheelbase"),
+              0.002 * changed.true_params.at("wheelbase"));
 }
 
 }  // namespace

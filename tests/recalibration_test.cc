@@ -10,6 +10,7 @@
 #include <sys/stat.h>
 #include <unistd.h>
 
+#include <algorithm>
 #include <atomic>
 #include <cmath>
 #include <cstdio>
@@ -300,31 +301,35 @@ struct Route {
   std::vector<SegmentBatch> batches;
 };
 
-const Route& SimulatedRoute() {
-  static const Route route = [] {
-    Route r;
-    r.sim = LoadSimConfig(Source("config/sims/forklift_route.yaml"));
-    r.sim.lidar2d.rate_hz = 0;  // not used here
-    MemorySink sink;
-    OfflineRunOptions run;
-    run.trajectory = "route";
-    RunOffline(r.sim, run, &sink);
-    const RecalConfig config = LoadRecalConfig(Source("config/recal.yaml"));
-    SegmentRecorder recorder(config, r.sim.robot, MotionSource::kPose);
-    for (const LogEvent& e : sink.events) {
-      if (e.channel == kWheelsChannel) {
-        agvcal::wheel_state_t m;
-        EXPECT_TRUE(Decode(e.data.data(), static_cast<int>(e.data.size()), &m));
-        recorder.AddWheels(WheelSampleFromMessage(m, r.sim.robot, "sim"));
-      } else if (e.channel == kPoseChannel) {
-        agvcal::pose2d_t m;
-        EXPECT_TRUE(Decode(e.data.data(), static_cast<int>(e.data.size()), &m));
-        recorder.AddPose(m);
-      }
-      while (auto batch = recorder.TakeBatch()) r.batches.push_back(std::move(*batch));
+// The route simulated with `seed` (0: the config's), recorded into segment batches.
+Route SimulateRoute(uint64_t seed) {
+  Route r;
+  r.sim = LoadSimConfig(Source("config/sims/forklift_route.yaml"));
+  r.sim.lidar2d.rate_hz = 0;  // not used here
+  if (seed != 0) r.sim.seed = seed;
+  MemorySink sink;
+  OfflineRunOptions run;
+  run.trajectory = "route";
+  RunOffline(r.sim, run, &sink);
+  const RecalConfig config = LoadRecalConfig(Source("config/recal.yaml"));
+  SegmentRecorder recorder(config, r.sim.robot, MotionSource::kPose);
+  for (const LogEvent& e : sink.events) {
+    if (e.channel == kWheelsChannel) {
+      agvcal::wheel_state_t m;
+      EXPECT_TRUE(Decode(e.data.data(), static_cast<int>(e.data.size()), &m));
+      recorder.AddWheels(WheelSampleFromMessage(m, r.sim.robot, "sim"));
+    } else if (e.channel == kPoseChannel) {
+      agvcal::pose2d_t m;
+      EXPECT_TRUE(Decode(e.data.data(), static_cast<int>(e.data.size()), &m));
+      recorder.AddPose(m);
     }
-    return r;
-  }();
+    while (auto batch = recorder.TakeBatch()) r.batches.push_back(std::move(*batch));
+  }
+  return r;
+}
+
+const Route& SimulatedRoute() {
+  static const Route route = SimulateRoute(0);
   return route;
 }
 
@@ -358,14 +363,9 @@ TEST_F(RouteDecisionTest, AcceptsABetterConsistentCalibrationThenKeepsIt) {
   EXPECT_GT(first.improvement->relative, 0.5);
   EXPECT_LT(first.improvement->p, 0.05);
   EXPECT_TRUE(first.consistency->consistent);
-  // The accepted values are the truth within 4 of their sigmas.
-  const auto truth = Truth(sim());
+  // The accepted values against the truth: AcceptedSigmasAreHonestOverTwentySeeds.
   const CalibrationInUse& after = first.after;
-  for (std::size_t i = 0; i < after.names.size(); ++i) {
-    const double sigma = std::sqrt(after.covariance(i, i));
-    EXPECT_NEAR(after.value[i], truth.at(after.names[i]), 4 * sigma) << after.names[i] << " sigma " << sigma;
-    EXPECT_GT(sigma, 0.0);
-  }
+  for (std::size_t i = 0; i < after.names.size(); ++i) EXPECT_GT(after.covariance(i, i), 0.0) << after.names[i];
   EXPECT_NEAR(after.value[0], 0.1163, 5e-4);  // drive_radius (nominal 0.115)
   EXPECT_EQ(after.robot.param("drive_radius"), after.value[0]);
 
@@ -377,6 +377,39 @@ TEST_F(RouteDecisionTest, AcceptsABetterConsistentCalibrationThenKeepsIt) {
   EXPECT_TRUE(second.consistency->consistent) << second.reason;
   EXPECT_NE(second.reason.find("not significantly better"), std::string::npos);
   EXPECT_EQ(second.after.value, first.after.value);  // kept
+}
+
+// Over 20 seeds of the route, a better calibration is accepted from the first batch on most,
+// and the accepted values lie within 3 of their sigmas of the truth for 95 % of them
+// (the honest-sigma target; one seed's values can sit in the tail).
+TEST(RouteDecisionSeedsTest, AcceptedSigmasAreHonestOverTwentySeeds) {
+  const RecalConfig config = LoadRecalConfig(Source("config/recal.yaml"));
+  int accepted = 0, values = 0, within3 = 0;
+  double worst = 0.0;
+  for (uint64_t seed = 1; seed <= 20; ++seed) {
+    const Route route = SimulateRoute(seed);
+    ASSERT_FALSE(route.batches.empty()) << "seed " << seed;
+    const CalibrationInUse nominal = CalibrationFromRobot(route.sim.robot, MotionSource::kPose, config);
+    const RecalDecision d = Decide(route.batches[0], nominal, MotionSource::kPose, config);
+    if (d.verdict != Verdict::kAccepted) {
+      std::printf("[ info     ] seed %d not accepted: %s\n", int(seed), d.reason.c_str());
+      continue;
+    }
+    ++accepted;
+    const auto truth = Truth(route.sim);
+    for (std::size_t i = 0; i < d.after.names.size(); ++i) {
+      const double z = std::abs(d.after.value[i] - truth.at(d.after.names[i])) / std::sqrt(d.after.covariance(i, i));
+      ++values;
+      within3 += z <= 3.0 ? 1 : 0;
+      worst = std::max(worst, z);
+    }
+  }
+  std::printf("[ info     ] accepted %d of 20 seeds; %d of %d values within 3 sigma, worst %.2f sigma\n",
+              accepted, within3, values, worst);
+  // Most seeds accept; the others miss the paired t-test over 4 held-out segments narrowly
+  // (p = 0.050-0.056 at 64-76 % less error): the decision's power, not the sigmas.
+  EXPECT_GE(accepted, 14);
+  EXPECT_GE(within3, 0.95 * values);
 }
 
 TEST_F(RouteDecisionTest, RejectsAnInconsistentCalibrationAndKeepsThePrevious) {

@@ -7,6 +7,7 @@
 
 #include <Eigen/Dense>
 #include <ceres/ceres.h>
+#include <unsupported/Eigen/SpecialFunctions>
 
 #include "calib/closed_form.h"
 #include "calib/errors.h"
@@ -480,6 +481,72 @@ State StateOf(const RobotDescription& robot, MotionSource source) {
   return state;
 }
 
+// The spread M of the per-interval scores J_k' r_k for the sandwich covariance (J_k, r_k the
+// whitened Jacobian and residual of interval k). Neighbouring intervals share an observation (a
+// scan, a pose), so their errors are anti-correlated and M is a small difference of large
+// terms. Summed over the sample's own products (sum s_k s_k' + s_k s_k-1' + s_k-1 s_k') it
+// comes out near zero or negative in some directions by chance, which would claim a parameter
+// known exactly (we saw 10 sigma errors). So the residuals' covariance is modelled instead: one
+// 3x3 covariance C0 and one neighbour covariance C1, pooled over the recording after dividing
+// each residual by its local size w_k (the rms over kLocalScaleHalfWidth intervals either side,
+// since the noise grows with the motion), giving
+//   M = sum w_k^2 J_k' C0 J_k + w_k w_k-1 (J_k' C1 J_k-1 + J_k-1' C1' J_k).
+// C1 is shrunk until the block-Toeplitz covariance of the residuals is positive semi-definite,
+// so M is too.
+Eigen::MatrixXd ScoreSpread(const std::vector<Eigen::MatrixXd>& jacobians, const std::vector<Eigen::Vector3d>& residuals,
+                            const std::vector<bool>& follows_previous) {
+  constexpr int kLocalScaleHalfWidth = 5;
+  const int n = static_cast<int>(residuals.size());
+  const int dim = n > 0 ? static_cast<int>(jacobians[0].cols()) : 0;
+  std::vector<double> scale(n);
+  for (int k = 0; k < n; ++k) {
+    double sum = 0.0;
+    int count = 0;
+    for (int j = std::max(0, k - kLocalScaleHalfWidth); j <= std::min(n - 1, k + kLocalScaleHalfWidth); ++j) {
+      sum += residuals[j].squaredNorm() / 3.0;
+      ++count;
+    }
+    scale[k] = std::sqrt(std::max(sum / count, 1e-300));
+  }
+  Eigen::Matrix3d c0 = Eigen::Matrix3d::Zero(), c1 = Eigen::Matrix3d::Zero();
+  int pairs = 0;
+  for (int k = 0; k < n; ++k) {
+    const Eigen::Vector3d u = residuals[k] / scale[k];
+    c0 += u * u.transpose();
+    if (follows_previous[k]) {
+      c1 += u * (residuals[k - 1] / scale[k - 1]).transpose();
+      ++pairs;
+    }
+  }
+  c0 /= std::max(1, n);
+  c1 /= std::max(1, pairs);
+  // The residuals' covariance is positive semi-definite when c0 + c1 e^iw + c1' e^-iw is for
+  // every frequency w (as a Hermitian 3x3, written as a real 6x6).
+  const auto positive = [&](const Eigen::Matrix3d& cross) {
+    for (int step = 0; step <= 64; ++step) {
+      const double w = M_PI * step / 64;
+      const Eigen::Matrix3d re = c0 + std::cos(w) * (cross + cross.transpose());
+      const Eigen::Matrix3d im = std::sin(w) * (cross - cross.transpose());
+      Eigen::Matrix<double, 6, 6> h;
+      h << re, -im, im, re;
+      if (Eigen::SelfAdjointEigenSolver<Eigen::Matrix<double, 6, 6>>(h).eigenvalues()[0] < 0.0) return false;
+    }
+    return true;
+  };
+  double shrink = 1.0;
+  while (shrink > 0.0 && !positive(shrink * c1)) shrink -= 0.02;
+  c1 *= std::max(shrink, 0.0);
+  Eigen::MatrixXd spread = Eigen::MatrixXd::Zero(dim, dim);
+  for (int k = 0; k < n; ++k) {
+    spread += scale[k] * scale[k] * jacobians[k].transpose() * c0 * jacobians[k];
+    if (follows_previous[k]) {
+      const Eigen::MatrixXd cross = scale[k] * scale[k - 1] * jacobians[k].transpose() * c1 * jacobians[k - 1];
+      spread += cross + cross.transpose();
+    }
+  }
+  return spread;
+}
+
 }  // namespace
 
 const char* MotionSourceName(MotionSource source) {
@@ -490,6 +557,61 @@ const char* MotionSourceName(MotionSource source) {
   }
   return "lidar2d";
 }
+
+double ChiSquareUpperTail(double x, int dof) {
+  return x <= 0 ? 1.0 : Eigen::numext::igammac(0.5 * dof, 0.5 * x);
+}
+
+namespace {
+
+// A result's estimates in the order of its `estimated_names` (and `covariance`).
+std::vector<Estimate> EstimatesInOrder(const CalibrationResult& r) {
+  std::vector<Estimate> out;
+  for (const std::string& name : r.param_names) out.push_back(r.params.at(name));
+  for (const Estimate& e : {r.mount_x, r.mount_y, r.mount_yaw}) out.push_back(e);
+  if (r.time_offset) out.push_back(*r.time_offset);
+  return out;
+}
+
+// The held-out half's own fit against the fit half's `fit` (HalvesAgreement).
+std::optional<HalvesAgreement> CompareHalves(const RobotDescription& robot, const WheelTrack& wheels,
+                                             const std::vector<SensorMotion>& heldout_motions,
+                                             MotionSource source, const CalibrationOptions& options,
+                                             const std::string& origin, const CalibrationResult& fit) {
+  CalibrationOptions alone = options;
+  alone.fit_fraction = 1.0;
+  alone.check_observability = false;
+  CalibrationResult other;
+  try {
+    other = Calibrate(robot, wheels, heldout_motions, source, alone, origin + " (held-out half)");
+  } catch (const InputError&) {
+    return std::nullopt;  // too few intervals
+  }
+  if (other.estimated_names != fit.estimated_names) return std::nullopt;
+  const std::vector<Estimate> mine = EstimatesInOrder(fit), theirs = EstimatesInOrder(other);
+  const int dim = static_cast<int>(mine.size());
+  HalvesAgreement a;
+  Eigen::VectorXd delta(dim);
+  const Eigen::MatrixXd sum = fit.covariance + other.covariance;
+  for (int i = 0; i < dim; ++i) {
+    if (!std::isfinite(mine[i].std) || !std::isfinite(theirs[i].std) || !(sum(i, i) > 0.0))
+      return std::nullopt;  // a value one half cannot determine
+    delta[i] = WrapAngle(theirs[i].value - mine[i].value);  // a no-op on all but the angles
+    a.heldout_fit[fit.estimated_names[i]] = theirs[i];
+    const double sigmas = std::abs(delta[i]) / std::sqrt(sum(i, i));
+    if (a.largest.empty() || sigmas > a.largest_sigmas) {
+      a.largest = fit.estimated_names[i];
+      a.largest_sigmas = sigmas;
+    }
+  }
+  a.dof = dim;
+  a.d2 = delta.dot(sum.ldlt().solve(delta));
+  if (!std::isfinite(a.d2) || a.d2 < 0.0) return std::nullopt;
+  a.p = ChiSquareUpperTail(a.d2, dim);
+  return a;
+}
+
+}  // namespace
 
 CalibrationResult Calibrate(const RobotDescription& robot, const WheelTrack& wheels,
                             const std::vector<SensorMotion>& motions, MotionSource source,
@@ -573,14 +695,15 @@ CalibrationResult Calibrate(const RobotDescription& robot, const WheelTrack& whe
   }
 
   // 3. Covariance: the sandwich H^-1 M H^-1 with H the information of the whitened Jacobians
-  //    and M the spread of the per-interval scores g_k = J_k^T r_k, including the products of
-  //    neighbouring intervals. Neighbours share an observation (a scan, a pose), so their
-  //    errors are correlated: a shared pose's noise cancels in the sum of two motions, and
-  //    treating them as independent would make every sigma wrong.
+  //    and M the spread of the per-interval scores g_k = J_k^T r_k, including the covariance of
+  //    neighbouring intervals (ScoreSpread). Neighbours share an observation (a scan, a pose),
+  //    so their errors are correlated: a shared pose's noise cancels in the sum of two motions,
+  //    and treating them as independent would make every sigma wrong.
   const int dim = num_params + 3 + (options.estimate_time_offset ? 1 : 0);
   Eigen::MatrixXd information = Eigen::MatrixXd::Zero(dim, dim);
-  Eigen::MatrixXd scores_spread = Eigen::MatrixXd::Zero(dim, dim);
-  Eigen::VectorXd previous_score;
+  std::vector<Eigen::MatrixXd> inlier_jacobians;  // whitened
+  std::vector<Eigen::Vector3d> residuals;
+  std::vector<bool> follows_previous;  // the interval starts where the previous one ended
   int64_t previous_end = -1;
   double chi2_sum = 0.0;
   int inliers = 0;
@@ -610,11 +733,9 @@ CalibrationResult Calibrate(const RobotDescription& robot, const WheelTrack& whe
     }
     J /= scale;
     information += J.transpose() * J;
-    const Eigen::VectorXd score = J.transpose() * (Eigen::Vector3d(residual[0], residual[1], residual[2]) / scale);
-    scores_spread += score * score.transpose();
-    if (previous_end == it.motion->utime_start && previous_score.size() == dim)
-      scores_spread += score * previous_score.transpose() + previous_score * score.transpose();
-    previous_score = score;
+    follows_previous.push_back(!residuals.empty() && previous_end == it.motion->utime_start);
+    inlier_jacobians.push_back(J);
+    residuals.push_back(Eigen::Vector3d(residual[0], residual[1], residual[2]) / scale);
     previous_end = it.motion->utime_end;
     chi2_sum += r.chi2;
     sum_e2 += r.error.cwiseAbs2();
@@ -628,7 +749,8 @@ CalibrationResult Calibrate(const RobotDescription& robot, const WheelTrack& whe
   const double variance_factor = chi2_sum / std::max(1, 3 * inliers - dim);
   result.residual.variance_factor = variance_factor * scale * scale;
   // The sample spread is a little small by the parameters fitted; the usual dof correction.
-  scores_spread *= double(3 * inliers) / std::max(1, 3 * inliers - dim);
+  const Eigen::MatrixXd spread =
+      ScoreSpread(inlier_jacobians, residuals, follows_previous) * (double(3 * inliers) / std::max(1, 3 * inliers - dim));
 
   for (int i = 0; i < num_params; ++i) result.estimated_names.push_back(result.param_names[i]);
   for (const char* axis : {".x", ".y", ".yaw"}) result.estimated_names.push_back(mount_name + axis);
@@ -649,11 +771,6 @@ CalibrationResult Calibrate(const RobotDescription& robot, const WheelTrack& whe
       eig.eigenvectors() * inv.asDiagonal() * eig.eigenvectors().transpose();
   const Eigen::MatrixXd information_inverse =
       d.asDiagonal().inverse() * correlation_inverse * d.asDiagonal().inverse();
-  // The neighbour products can make the spread indefinite in a small sample: clip at zero.
-  Eigen::SelfAdjointEigenSolver<Eigen::MatrixXd> spread_eig(scores_spread);
-  const Eigen::MatrixXd spread = spread_eig.eigenvectors() *
-                                 spread_eig.eigenvalues().cwiseMax(0.0).asDiagonal() *
-                                 spread_eig.eigenvectors().transpose();
   result.covariance = information_inverse * spread * information_inverse;
   std::vector<double> sigma(dim);
   for (int i = 0; i < dim; ++i) {
@@ -719,6 +836,9 @@ CalibrationResult Calibrate(const RobotDescription& robot, const WheelTrack& whe
       inside[1].per_window.push_back(h.calibrated.per_window[w]);
     }
     h.paired_within_fit_range = ComparePaired(inside[0], inside[1]);
+    std::vector<SensorMotion> heldout_motions;
+    for (std::size_t k = num_fit; k < usable.size(); ++k) heldout_motions.push_back(*usable[k]);
+    h.halves = CompareHalves(robot, wheels, heldout_motions, source, options, origin, result);
     result.heldout = h;
   }
   return result;

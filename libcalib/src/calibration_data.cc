@@ -20,7 +20,7 @@ void CalibrationData::AddPose(const agvcal::pose2d_t& message) {
     ++dropped_poses_;
     return;
   }
-  if (last_pose_) motions_.push_back(MotionBetweenPoses(*last_pose_, message));
+  if (std::optional<SensorMotion> motion = pose_intervals_.Add(message)) motions_.push_back(*motion);
   last_pose_ = message;
 }
 
@@ -28,6 +28,17 @@ void CalibrationData::AddMotion(const SensorMotion& motion) { motions_.push_back
 
 void CalibrationData::AddImu(const agvcal::imu_t& message, const std::string& origin) {
   imu_.push_back(ImuSampleFromMessage(message, origin));
+}
+
+std::optional<SensorMotion> PoseIntervals::Add(const agvcal::pose2d_t& pose) {
+  if (!start_) {
+    start_ = pose;
+    return std::nullopt;
+  }
+  if (pose.utime - start_->utime < std::llround(kMinPoseIntervalS * 1e6)) return std::nullopt;
+  const SensorMotion motion = MotionBetweenPoses(*start_, pose);
+  start_ = pose;
+  return motion;
 }
 
 SensorMotion MotionBetweenPoses(const agvcal::pose2d_t& from, const agvcal::pose2d_t& to) {

@@ -189,11 +189,6 @@ double StudentUpperTail(double t, double dof) {
   return t >= 0 ? tail : 1.0 - tail;
 }
 
-// P(chi2 > x) with `dof` degrees of freedom.
-double ChiSquareUpperTail(double x, int dof) {
-  return x <= 0 ? 1.0 : Eigen::numext::igammac(0.5 * dof, 0.5 * x);
-}
-
 bool IsAngle(const std::string& name) {
   return name == "steer_offset" || name.find("_steer_offset") != std::string::npos ||
          (name.size() > 4 && name.compare(name.size() - 4, 4, ".yaw") == 0);
@@ -341,7 +336,9 @@ void SegmentRecorder::AddMotion(const SensorMotion& motion) {
 
 void SegmentRecorder::AddPose(const agvcal::pose2d_t& pose) {
   if (last_pose_ && pose.utime <= last_pose_->utime) return;
-  if (source_ == MotionSource::kPose && last_pose_) motions_.push_back(MotionBetweenPoses(*last_pose_, pose));
+  if (source_ == MotionSource::kPose) {
+    if (std::optional<SensorMotion> motion = pose_intervals_.Add(pose)) motions_.push_back(*motion);
+  }
   if (!config_.zones.empty()) {
     if (open_ && last_pose_ && (pose.utime - last_pose_->utime) * 1e-6 > config_.max_pose_gap_s)
       Close(last_pose_->utime);

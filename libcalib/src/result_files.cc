@@ -90,6 +90,16 @@ std::string CalibrationResultJson(const CalibrationResult& r) {
                               {"fit_range", {c.fit_low, c.fit_high}},
                               {"heldout_range", {c.heldout_low, c.heldout_high}},
                               {"heldout_outside_fit", c.heldout_outside}};
+    if (const auto& halves = r.heldout->halves) {
+      nlohmann::json fit = nlohmann::json::object();
+      for (const auto& [name, e] : halves->heldout_fit) fit[name] = {{"value", e.value}, {"std", Number(e.std)}};
+      j["heldout"]["halves"] = {{"d2", halves->d2},
+                                {"dof", halves->dof},
+                                {"p", halves->p},
+                                {"largest", halves->largest},
+                                {"largest_sigmas", halves->largest_sigmas},
+                                {"heldout_fit", fit}};
+    }
   }
   return j.dump(2) + "\n";
 }

@@ -35,7 +35,8 @@ time offset. Prints a summary; RESULT.json follows spec/cli.md.
   --fit-fraction F           fit on the first fraction F of the recording, and compare the
                              calibrated with the nominal model's odometry on the rest:
                              windows of equal path, the longest that give N windows
-                             (--heldout-windows, default 20), paired by a sign test
+                             (--heldout-windows, default 20), paired by a sign test;
+                             also fits the rest alone and says whether the halves agree
   --quiet                    no progress on stderr
 Exit status: 0 done; 2 unusable input; 3 the recording cannot determine a
 parameter (stderr names it and the motion to add); 1 internal error.
@@ -127,6 +128,17 @@ int Solve(int argc, char** argv) {
                   h.paired_within_fit_range.second_better,
                   h.paired_within_fit_range.windows - h.paired_within_fit_range.ties,
                   h.paired_within_fit_range.sign_test_p);
+    }
+    if (h.halves) {
+      const calib::HalvesAgreement& a = *h.halves;
+      const calib::Estimate& other = a.heldout_fit.at(a.largest);
+      std::printf("  fitted on the held-out half alone: %s %.6g ± %.2g; the halves %s (d2 = %.1f, %d dof, p = %.2g)\n",
+                  a.largest.c_str(), other.value, other.std, a.p < 0.01 ? "disagree" : "agree", a.d2, a.dof, a.p);
+      if (a.p < 0.01)
+        std::printf("  %s differs by %.1f sigma: the robot's odometry changed during the recording, or physics\n"
+                    "  the model leaves out acts differently on the halves' motions (agvcal diagnose looks for it);\n"
+                    "  no fixed calibration fits both halves\n",
+                    a.largest.c_str(), a.largest_sigmas);
     }
   }
   if (args.Has("--out")) calib::WriteFileAtomically(args.Get("--out", ""), calib::CalibrationResultJson(result));

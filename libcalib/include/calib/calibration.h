@@ -147,6 +147,23 @@ struct MotionCoverage {
   std::vector<std::pair<int64_t, int64_t>> outside_spans;  // those intervals (utime start, end)
 };
 
+// The calibration fitted on the held-out half alone against the fit half's: the squared
+// Mahalanobis distance of their difference under the sum of their covariances, a chi-square
+// with one degree per value. When they differ beyond their uncertainties, no fixed calibration
+// fits both halves: the robot's odometry changed during the recording (wear, load, the floor),
+// or physics the model leaves out acts differently on the halves' different motions.
+struct HalvesAgreement {
+  double d2 = 0.0;
+  int dof = 0;
+  double p = 1.0;
+  std::string largest;          // the value that differs most, in combined sigmas
+  double largest_sigmas = 0.0;
+  std::map<std::string, Estimate> heldout_fit;  // the held-out half's own fit (drive and mount)
+};
+
+// P(chi2 > x) with `dof` degrees of freedom.
+double ChiSquareUpperTail(double x, int dof);
+
 struct HeldoutComparison {
   int intervals = 0;
   double window_m = 0.0;     // path length of a window
@@ -157,6 +174,8 @@ struct HeldoutComparison {
   // The same over the windows without an interval outside the fit half's range: how the
   // models compare where the calibration did not extrapolate.
   PairedComparison paired_within_fit_range;
+  // Absent when the held-out half alone cannot determine every value.
+  std::optional<HalvesAgreement> halves;
 };
 
 // What the IMU-referenced calibration adds (imu_calibration.h): the gyro's

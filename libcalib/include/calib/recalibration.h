@@ -44,6 +44,7 @@
 
 #include "agvcal/pose2d_t.hpp"
 #include "calib/calibration.h"
+#include "calib/calibration_data.h"
 #include "calib/kinematics.h"
 #include "calib/robot.h"
 #include "calib/sensor_motion.h"
@@ -138,6 +139,7 @@ class SegmentRecorder {
   std::deque<WheelSample> wheels_;
   std::deque<SensorMotion> motions_;
   std::optional<agvcal::pose2d_t> last_pose_;
+  PoseIntervals pose_intervals_;
   std::optional<Segment> open_;
   std::deque<Segment> closed_;  // waiting for their data
   std::deque<SegmentData> complete_;
