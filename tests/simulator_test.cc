@@ -676,6 +676,7 @@ TEST(SimulatorTest, SteeringBacklashOffsetsByHalfWidthAgainstTheLastMotion) {
     sim.AdvanceTo(t += Us(hold_s), &sink);
     return t;
   };
+  const int64_t before_any = steer_to(0.0, 0.5);  // no steering motion yet: no side of the play
   const int64_t from_below = steer_to(0.2, 0.5);  // 0 -> 0.2: last motion positive
   steer_to(0.4, 0.3);
   const int64_t from_above = steer_to(0.2, 0.5);  // 0.4 -> 0.2: last motion negative
@@ -690,6 +691,7 @@ TEST(SimulatorTest, SteeringBacklashOffsetsByHalfWidthAgainstTheLastMotion) {
     return sum / n;
   };
   const double up = mean_steer(from_below), down = mean_steer(from_above);
+  EXPECT_NEAR(mean_steer(before_any), -kTrueSteerOffset, 0.02 * width);
   EXPECT_NEAR(up, 0.2 - kTrueSteerOffset - width / 2, 0.02 * width);
   EXPECT_NEAR(down, 0.2 - kTrueSteerOffset + width / 2, 0.02 * width);
   EXPECT_NEAR(down - up, width, 0.02 * width);

@@ -30,7 +30,9 @@ struct WheelState {
   double rolling_speed = 0.0; // r * omega over the previous physics step, m/s
   double steer_reading = 0.0; // raw steering encoder angle (actuator position), rad
   double steer_lagged = 0.0;  // reading after the steering lag, rad
-  double last_motion_sign = 1.0;
+  // steering_backlash: sign(last steering motion); none yet, so the wheel sits at the
+  // reading until the steering first moves (the side of the play is unknown before).
+  double last_motion_sign = 0.0;
   double omega_target = 0.0, steer_target = 0.0;
 };
 
