@@ -602,6 +602,7 @@ std::optional<HalvesAgreement> CompareHalves(const RobotDescription& robot, cons
     if (a.largest.empty() || sigmas > a.largest_sigmas) {
       a.largest = fit.estimated_names[i];
       a.largest_sigmas = sigmas;
+      a.largest_in_fit = mine[i];
     }
   }
   a.dof = dim;

@@ -131,14 +131,15 @@ int Solve(int argc, char** argv) {
     }
     if (h.halves) {
       const calib::HalvesAgreement& a = *h.halves;
-      const calib::Estimate& other = a.heldout_fit.at(a.largest);
-      std::printf("  fitted on the held-out half alone: %s %.6g ± %.2g; the halves %s (d2 = %.1f, %d dof, p = %.2g)\n",
-                  a.largest.c_str(), other.value, other.std, a.p < 0.01 ? "disagree" : "agree", a.d2, a.dof, a.p);
+      const calib::Estimate& fit = a.largest_in_fit;
+      const calib::Estimate& alone = a.heldout_fit.at(a.largest);
+      std::printf("  the held-out half fitted alone: the halves %s (d2 = %.1f, %d dof, p = %.2g); most apart:\n"
+                  "  %s %.6g ± %.2g (fit half), %.6g ± %.2g (held-out half), %.1f sigma\n",
+                  a.p < 0.01 ? "disagree" : "agree", a.d2, a.dof, a.p, a.largest.c_str(), fit.value, fit.std,
+                  alone.value, alone.std, a.largest_sigmas);
       if (a.p < 0.01)
-        std::printf("  %s differs by %.1f sigma: the robot's odometry changed during the recording, or physics\n"
-                    "  the model leaves out acts differently on the halves' motions (agvcal diagnose looks for it);\n"
-                    "  no fixed calibration fits both halves\n",
-                    a.largest.c_str(), a.largest_sigmas);
+        std::printf("  no fixed calibration fits both halves: the robot's odometry changed during the recording,\n"
+                    "  or physics the model leaves out acts differently on the halves' motions (agvcal diagnose)\n");
     }
   }
   if (args.Has("--out")) calib::WriteFileAtomically(args.Get("--out", ""), calib::CalibrationResultJson(result));

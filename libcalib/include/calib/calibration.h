@@ -158,6 +158,7 @@ struct HalvesAgreement {
   double p = 1.0;
   std::string largest;          // the value that differs most, in combined sigmas
   double largest_sigmas = 0.0;
+  Estimate largest_in_fit;      // its estimate from the fit half
   std::map<std::string, Estimate> heldout_fit;  // the held-out half's own fit (drive and mount)
 };
 
