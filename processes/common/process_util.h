@@ -7,6 +7,7 @@
 
 #include <atomic>
 #include <cstdint>
+#include <exception>
 #include <functional>
 #include <map>
 #include <optional>
@@ -40,6 +41,25 @@ void RequireGoodBus(lcm::LCM& lcm, const std::string& url);
 // Set by SIGINT or SIGTERM once InstallStopHandlers() has run.
 extern std::atomic<bool> g_stop_requested;
 void InstallStopHandlers();
+
+// Exceptions must not cross LCM's C callbacks: Run(f) keeps the first one's
+// message and requests the stop; the process reports it after its loop.
+class FirstError {
+ public:
+  template <typename F>
+  void Run(F f) {
+    try {
+      f();
+    } catch (const std::exception& e) {
+      if (!message_) message_ = e.what();
+      g_stop_requested = true;
+    }
+  }
+  const std::optional<std::string>& message() const { return message_; }
+
+ private:
+  std::optional<std::string> message_;
+};
 
 // Wall-clock microseconds (heartbeats and pacing only; data carry robot time).
 int64_t WallMicros();

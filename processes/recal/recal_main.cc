@@ -50,29 +50,20 @@ class Feeder {
       : robot_(robot), recorder_(recorder) {}
 
   void OnWheels(const lcm::ReceiveBuffer*, const std::string& channel, const agvcal::wheel_state_t* msg) {
-    Guard([&] { recorder_->AddWheels(calib::WheelSampleFromMessage(*msg, robot_, channel)); });
+    error_.Run([&] { recorder_->AddWheels(calib::WheelSampleFromMessage(*msg, robot_, channel)); });
   }
   void OnScanMatch(const lcm::ReceiveBuffer*, const std::string& channel, const agvcal::scan_match_t* msg) {
-    Guard([&] { recorder_->AddMotion(calib::FromMessage(*msg, channel)); });
+    error_.Run([&] { recorder_->AddMotion(calib::FromMessage(*msg, channel)); });
   }
   void OnPose(const lcm::ReceiveBuffer*, const std::string&, const agvcal::pose2d_t* msg) {
-    Guard([&] { recorder_->AddPose(*msg); });
+    error_.Run([&] { recorder_->AddPose(*msg); });
   }
-  const std::optional<std::string>& error() const { return error_; }
+  const std::optional<std::string>& error() const { return error_.message(); }
 
  private:
-  template <typename F>
-  void Guard(F f) {
-    try {
-      f();
-    } catch (const std::exception& e) {
-      if (!error_) error_ = e.what();
-      agvcal_process::g_stop_requested = true;
-    }
-  }
   const calib::RobotDescription& robot_;
   calib::SegmentRecorder* recorder_;
-  std::optional<std::string> error_;
+  agvcal_process::FirstError error_;
 };
 
 int Run(int argc, char** argv) {

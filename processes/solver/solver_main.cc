@@ -48,7 +48,7 @@ class Solver {
 
   // One encoded message of `channel` (WHEELS, or the motion channel).
   void OnMessage(const std::string& channel, const uint8_t* data, size_t size) {
-    Guard([&] {
+    error_.Run([&] {
       if (channel == calib::kWheelsChannel) {
         agvcal::wheel_state_t m;
         if (Decoded(channel, data, size, &m)) data_.AddWheels(m, channel);
@@ -73,8 +73,7 @@ class Solver {
     holding_solves_ = hold;
     if (!hold) MaybeSolve();
   }
-  bool failed() const { return error_.has_value(); }
-  const std::string& error() const { return *error_; }
+  const std::optional<std::string>& error() const { return error_.message(); }
 
   // Solves on everything collected; publishes the estimate and the new residuals.
   // Throws what Calibrate throws when `final`.
@@ -94,17 +93,6 @@ class Solver {
   }
 
  private:
-  // Exceptions must not cross LCM's C callbacks: keep the first and stop.
-  template <typename F>
-  void Guard(F f) {
-    try {
-      f();
-    } catch (const std::exception& e) {
-      if (!error_) error_ = e.what();
-      agvcal_process::g_stop_requested = 1;
-    }
-  }
-
   // A message of another type on our channel is skipped (as LCM's typed
   // subscriptions do), and reported once.
   template <typename Message>
@@ -146,7 +134,7 @@ class Solver {
   bool holding_solves_ = false;
   int64_t undecodable_ = 0;
   int64_t last_residual_utime_ = 0;
-  std::optional<std::string> error_;
+  agvcal_process::FirstError error_;
 };
 
 int Run(int argc, char** argv) {
@@ -189,7 +177,7 @@ int Run(int argc, char** argv) {
   const int64_t drain_end = WallMicros() + 2000000;
   while (WallMicros() < drain_end && lcm.handleTimeout(50) > 0) {
   }
-  if (solver.failed()) throw calib::InputError("bus", "message", solver.error());
+  if (solver.error()) throw calib::InputError("bus", "message", *solver.error());
   const calib::CalibrationResult result = solver.Solve(true);
   if (args.Has("--out")) calib::WriteFileAtomically(args.Get("--out", ""), calib::CalibrationResultJson(result));
   std::cerr << "agvcal-solver: final solve on " << result.residual.intervals << " intervals\n";
