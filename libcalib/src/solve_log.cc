@@ -42,6 +42,8 @@ MotionSource ChooseMotionSource(const RobotDescription& robot, const std::string
       throw InputError(log_path, "channel " + scan, "not in the recording (needed for the 2D lidar)");
     return MotionSource::kLidar2d;
   }
+  if (requested == MotionSource::kPose && !has(pose))
+    throw InputError(log_path, "channel " + pose, "not in the recording (needed for --source pose)");
   if (!has(pose)) {
     throw InputError(log_path, "channels " + scan + " / " + pose + " / " + imu,
                      "neither scans of the robot's 2D lidar, external poses nor the robot's IMU in "
