@@ -9,11 +9,18 @@
 //    mount of the robot file):
 //      S(t) = Inverse(mount) ∘ Odometry(t0, t) ∘ mount,
 //    integrated once per scan, one encoder interval after another, with a
-//    constant twist inside each interval. The encoder readings are first
-//    smoothed (least-squares quadratic in time over the scan and
-//    deskew_smoothing_s either side): a 4096-tick encoder on a 0.45 m track
-//    quantises the heading to 0.25 mrad, which would warp a scan by 2 mm at
-//    10 m; smoothed, 0.2 mm.
+//    constant twist inside each interval, from the encoder readings as they
+//    are (interpolated at the scan's utime). A reading's quantisation error at
+//    utime (a 4096-tick encoder on a 0.45 m track: heading to 0.25 mrad)
+//    turns the whole de-skewed scan by that error, so the match carries the
+//    encoder error at both stamps: exactly the error of the odometry it is
+//    compared with, and the two cancel in the calibration's residual.
+//    Smoothing the readings (deskew_smoothing_s > 0: least-squares quadratic
+//    over the scan and that margin either side) gives a match closer to the
+//    true motion but breaks that cancellation, and where the acceleration
+//    changes within the window the quadratic misfits in step with the
+//    acceleration: the calibration then saw a time offset of -0.18 ms
+//    (dual steer, 2 sigma) and -2.7 ms (solve, differential) that was not there.
 // 2. PL-ICP (after Censi 2008, "An ICP variant using a point-to-line metric").
 //    Every point q of the current scan, moved by the guess T, is paired with
 //    its nearest reference point (exact search by polar angle, exploiting
@@ -105,7 +112,7 @@ struct ScanMatchOptions {
   bool symmetric = true;
   // Pipeline.
   bool deskew = true;                // false: every beam taken at the scan's utime
-  double deskew_smoothing_s = 0.03;  // encoder readings smoothed over the scan and this margin
+  double deskew_smoothing_s = 0.0;   // > 0: readings smoothed over the scan and this margin (see 1.)
   // An encoder gap within a pair longer than both of these makes the match invalid:
   double max_wheel_gap_s = 0.25;     // s
   double wheel_gap_factor = 2.5;     // times the median of the last 15 encoder intervals
