@@ -204,8 +204,10 @@ def main():
              "(scan_distortion: a real 50 ms scan; steering_rate_limit: half the commanded steering rate;",
              "drive_lag: 20 ms, a fifth of a typical drive's response time).",
              "The held-out measure (REPORT.json `heldout_measure`): dead-reckoning drift over 2 s windows of",
-             "held-out motion for effects that add up along the way; the per-interval residual where the",
-             "effect acts for wheel eccentricity (it cancels over a revolution) and the actuation effects.", "",
+             "held-out motion for effects whose error adds up along the way (lateral slip, backlash, scan",
+             "distortion); the per-interval residual where the effect acts for those whose chained error",
+             "telescopes to the window's ends (time offset, longitudinal slip), cancels over a revolution",
+             "(wheel eccentricity) or is not chained (the actuation effects).", "",
              "| drive | truth | size | runs | named correctly | other effect named | of which reported indistinguishable from the truth | parameter within 20 % or 2σ | held-out error ≥ 20 % lower (its measure) | median reduction: drift over 2 s | median reduction: per interval where it acts |",
              "|---|---|---|---|---|---|---|---|---|---|---|"]
     confusion = ["", "## What was named", "",

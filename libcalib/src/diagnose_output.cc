@@ -84,6 +84,7 @@ std::string DiagnoseReportJson(const DiagnoseReport& r) {
                          {"p_value", Number(c.p_adjusted)}, {"delta_bic", Number(c.delta_bic)},
                          {"detectable", Number(c.detectable)}};
     if (!c.wheel.empty()) jc["wheel"] = c.wheel;
+    for (const auto& [other, size] : c.detectable_with) jc["detectable_with"][other] = Number(size);
     if (!c.note.empty()) jc["note"] = c.note;
     j["candidates"].push_back(jc);
   }

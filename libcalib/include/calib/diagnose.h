@@ -19,6 +19,8 @@
 // tell them apart, reported as indistinguishable (with the motion that would
 // separate them) when not. A candidate whose minimum detectable size exceeds
 // any plausible size is reported as not identifiable, never as something else.
+// An effect must also lower BIC on the fit blocks: a Wald statistic can overstate
+// the evidence where the model is far from linear or the regressor sparse.
 
 #include <cstdint>
 #include <functional>
@@ -114,9 +116,11 @@ struct FoundEffect {
   std::string drift_component;  // translation, heading or "" (not measured)
   double drift_window_s = 0, heldout_drift_before = 0, heldout_drift_after = 0;
   int drift_windows = 0;
-  // The held-out measure that judges the effect: "drift", or "per_interval" (the
-  // `heldout_rms_*`) for effects that cancel over a wheel revolution (eccentricity) or
-  // are not chained (actuation).
+  // The held-out measure that judges the effect: "drift" for effects whose error keeps its
+  // sign and adds up along the way (lateral slip, backlash, steering lag, scan distortion),
+  // "per_interval" (the `heldout_rms_*`) for those whose chained error telescopes to the
+  // window's ends (time offset, longitudinal slip), cancels over a wheel revolution
+  // (eccentricity) or is not chained (actuation).
   std::string heldout_measure = "per_interval";
   std::vector<TimeSpan> where;
   std::string regime;     // the motion under which it shows, in words
@@ -132,6 +136,8 @@ struct CandidateOutcome {
   ParamEstimate estimate;
   double p_value = 1, p_adjusted = 1, delta_bic = 0;
   double detectable = 0;  // minimum detectable size (alpha, power 0.8) with this recording
+  // The same when its confusable look-alike is fitted too (both present): by look-alike.
+  std::map<std::string, double> detectable_with;
   std::string note;       // e.g. the motion that would excite it
 };
 
