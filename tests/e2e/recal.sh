@@ -47,8 +47,8 @@ set -u
 "$BUILD/agvcal-recal" "$robot" --config "$config" --out-robot "$TMP/live.yaml" \
   --decisions "$TMP/live.jsonl" 2> "$TMP/recal.err" & recal=\$!
 sleep 1   # subscribed before the replay starts
-# 10x: agvcal-recal gives up waiting for a segment's last scan matches 5 s of robot time after
-# it ends (kLookbackS), 0.5 s of wall time here; a scan matcher slowed that much by a loaded
+# 10x: agvcal-recal gives up waiting for a segment's last scan matches 30 s of robot time after
+# it ends (kLookbackS), 3 s of wall time here; a scan matcher slowed that much by a loaded
 # machine would otherwise change a segment's data.
 lcm-logplayer -s 10 "$log"
 sleep 2

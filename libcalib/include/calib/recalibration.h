@@ -108,10 +108,13 @@ struct SegmentBatch {
 };
 
 // Turns the message streams into segments with their data, in robot time. Decisions depend on
-// the messages' contents, not on how the streams interleave (up to `kLookbackS` of skew).
+// the messages' contents, not on how the streams interleave (up to `kLookbackS` of skew: a
+// segment waits that long, in robot time, for its last scan matches before it is taken
+// without them). 30 s: a replay at 10x on a loaded machine once lagged the matcher past 5 s
+// (0.5 s of wall time), and the live decision differed from the offline one in the 8th digit.
 class SegmentRecorder {
  public:
-  static constexpr double kLookbackS = 5.0;
+  static constexpr double kLookbackS = 30.0;
 
   // `robot`: the description at the start (its nominal model measures distance windows).
   SegmentRecorder(const RecalConfig& config, const RobotDescription& robot, MotionSource source);
