@@ -999,7 +999,14 @@ DiagnoseReport Diagnoser::Select(const Model& start, const CalibrationResult& ca
     }
   }
 
-  // Detectable sizes when a confusable look-alike is present too: both fitted together.
+  // Every confusable pair fitted together from the baseline: the detectable sizes when the
+  // look-alike is present too, and the pair's joint test below.
+  struct PairFit {
+    const PairInfo* pair;
+    int a, b;  // candidate indices
+    Fit joint;
+  };
+  std::vector<PairFit> pair_fits;
   for (const PairInfo& pair : kConfusable) {
     int ia = -1, ib = -1;
     for (std::size_t j = 0; j < cands.size(); ++j) {
@@ -1011,7 +1018,8 @@ DiagnoseReport Diagnoser::Select(const Model& start, const CalibrationResult& ca
     Model startm = f0.m;
     startm.beta[ba] = single[ia].m.beta[ba];
     startm.beta[bb] = single[ib].m.beta[bb];
-    const Fit joint = FitModel(startm, {ba, bb}, {ba, bb});
+    pair_fits.push_back({&pair, ia, ib, FitModel(startm, {ba, bb}, {ba, bb})});
+    const Fit& joint = pair_fits.back().joint;
     const double z = NormalUpper(alpha_odo / m_odo / 2) + NormalUpper(0.2);
     outcomes[ia].detectable_with[pair.b] = z * std::sqrt(std::max(joint.cov(0, 0), 0.0));
     outcomes[ib].detectable_with[pair.a] = z * std::sqrt(std::max(joint.cov(1, 1), 0.0));
@@ -1033,26 +1041,17 @@ DiagnoseReport Diagnoser::Select(const Model& start, const CalibrationResult& ca
   {
     const double level = alpha_odo / double(m_odo + std::size(kConfusable));
     double best_wald = 0;
-    for (const PairInfo& pair : kConfusable) {
-      int ia = -1, ib = -1;
-      for (std::size_t j = 0; j < cands.size(); ++j) {
-        if (cands[j].name == pair.a) ia = int(j);
-        if (cands[j].name == pair.b) ib = int(j);
-      }
-      if (ia < 0 || ib < 0 || eligible[ia] || eligible[ib]) continue;
-      const int ba = cands[ia].beta[0], bb = cands[ib].beta[0];
-      Model startm = f0.m;
-      startm.beta[ba] = single[ia].m.beta[ba];
-      startm.beta[bb] = single[ib].m.beta[bb];
-      const Fit joint = FitModel(startm, {ba, bb}, {ba, bb});
+    for (const PairFit& pf : pair_fits) {
+      const Fit& joint = pf.joint;
+      if (eligible[pf.a] || eligible[pf.b]) continue;
       const bool pays = (joint.chi2_fit - f0.chi2_fit) + 2 * log_n < 0;
       if (!(joint.p < level && pays && joint.wald > best_wald)) continue;
-      if (!(confirmed(f0, joint) || drift_confirmed(f0, joint, Localize(cands[ia], joint.m, f0.m).comp == 2)))
+      if (!(confirmed(f0, joint) || drift_confirmed(f0, joint, Localize(cands[pf.a], joint.m, f0.m).comp == 2)))
         continue;
       best_wald = joint.wald;
-      seeded = &pair;
+      seeded = pf.pair;
       seeded_corr = joint.cov(0, 1) / std::sqrt(std::max(joint.cov(0, 0) * joint.cov(1, 1), 1e-300));
-      chosen = {ia, ib};
+      chosen = {pf.a, pf.b};
       chosen_p = {joint.p, joint.p};
       chosen_wald = {joint.wald, joint.wald};
       current = joint;
@@ -1113,12 +1112,12 @@ DiagnoseReport Diagnoser::Select(const Model& start, const CalibrationResult& ca
     }
   }
   if (seeded) {
-    auto position = [&](const char* name) {
-      for (std::size_t j = 0; j < cands.size(); ++j)
-        if (cands[j].name == name) return std::find(chosen.begin(), chosen.end(), int(j)) != chosen.end();
+    auto is_chosen = [&](const char* name) {
+      for (int j : chosen)
+        if (cands[j].name == name) return true;
       return false;
     };
-    if (!position(seeded->a) && !position(seeded->b)) {
+    if (!is_chosen(seeded->a) && !is_chosen(seeded->b)) {
       report.indistinguishable.push_back({seeded->a, seeded->b, seeded_corr, seeded->motion});
       for (CandidateOutcome& o : outcomes) {
         if (o.name == seeded->a || o.name == seeded->b) {
