@@ -69,15 +69,20 @@ double HeldoutGain(const FoundEffect& e) {
   return 1.0 - e.heldout_rms_after / e.heldout_rms_before;
 }
 
+// The suite's parameter target: within 20 % (or 2 sigma) of the truth.
+::testing::AssertionResult NearTruth(const std::string& name, const ParamEstimate& p, double truth) {
+  if (std::abs(p.value - truth) <= 0.2 * std::abs(truth) || std::abs(p.value - truth) <= 2 * p.std)
+    return ::testing::AssertionSuccess();
+  return ::testing::AssertionFailure() << name << " " << p.value << " +- " << p.std << " truth " << truth;
+}
+
 // One hidden effect: exactly it is named, its parameter within 20 % (or 2 sigma) of the
 // truth, and the held-out error at least 20 % lower.
 void ExpectFound(const DiagnoseReport& r, const std::string& name, const std::string& key, double truth) {
   ASSERT_EQ(r.effects.size(), 1u) << "named: " << Named(r) << "\n" << DiagnoseSummaryText(r);
   const FoundEffect* e = Find(r, name);
   ASSERT_NE(e, nullptr) << "named: " << Named(r);
-  const ParamEstimate& p = e->params.at(key);
-  EXPECT_TRUE(std::abs(p.value - truth) <= 0.2 * std::abs(truth) || std::abs(p.value - truth) <= 2 * p.std)
-      << name << " " << p.value << " +- " << p.std << " truth " << truth;
+  EXPECT_TRUE(NearTruth(name, e->params.at(key), truth));
   EXPECT_LT(e->p_adjusted, 0.01);
   EXPECT_GE(HeldoutGain(*e), 0.2) << DiagnoseSummaryText(r);
   EXPECT_FALSE(e->where.empty());
@@ -172,9 +177,7 @@ TEST(Diagnose, TimeOffsetAndSlipThatHideEachOther) {
                                          {"longitudinal_slip", "slip_per_accel", 0.0023}}) {
     const FoundEffect* e = Find(r, name);
     ASSERT_NE(e, nullptr) << name;
-    const ParamEstimate& p = e->params.at(key);
-    EXPECT_TRUE(std::abs(p.value - truth) <= 0.2 * truth || std::abs(p.value - truth) <= 2 * p.std)
-        << name << " " << p.value << " +- " << p.std << " truth " << truth;
+    EXPECT_TRUE(NearTruth(name, e->params.at(key), truth));
   }
 }
 

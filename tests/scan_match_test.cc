@@ -135,6 +135,12 @@ std::vector<SensorMotion> Match(const Recording& rec, const ScanMatchOptions& op
   return Match(rec, rec.order, options, counts);
 }
 
+WheelTrack TrackOf(const Recording& rec) {
+  WheelTrack track;
+  for (const WheelSample& w : rec.wheels) track.Append(w);
+  return track;
+}
+
 Pose2 TruePose(const Recording& rec, int64_t utime) {
   auto after = rec.truth.lower_bound(utime);
   if (after != rec.truth.end() && after->first == utime) return after->second;
@@ -181,8 +187,7 @@ Accuracy Evaluate(const Recording& rec, const std::vector<SensorMotion>& results
   Accuracy a;
   std::vector<double> translation, heading;
   double nees = 0, nees_truth = 0;
-  WheelTrack track;
-  for (const WheelSample& w : rec.wheels) track.Append(w);
+  const WheelTrack track = TrackOf(rec);
   const auto true_model = MakeDriveModel(rec.robot.drive, rec.true_params);
   for (const SensorMotion& m : results) {
     if (!m.valid) {
@@ -345,8 +350,7 @@ TEST(ScanMatchTest, SymmetricMatchIsUnbiasedAtStandstill) {
 TEST(ScanMatchTest, PerturbedPriorConvergesToTheSameMatch) {
   const Recording rec = ReadSample("forklift_demo.log", "forklift.yaml");
   const ScanMatchOptions options = PerPair();
-  WheelTrack track;
-  for (const WheelSample& w : rec.wheels) track.Append(w);
+  const WheelTrack track = TrackOf(rec);
   const auto model = MakeDriveModel(rec.robot);
   const Pose2 mount{rec.robot.lidar2d->x, rec.robot.lidar2d->y, rec.robot.lidar2d->yaw};
   for (std::size_t k : {60u, 200u, 400u}) {
@@ -409,8 +413,7 @@ TEST(ScanMatchTest, DeskewedPointsLieOnTheWalls) {
   for (const std::string trajectory : {"turns", "straight"}) {
     SCOPED_TRACE(trajectory);
     const Recording rec = Simulate(sim, trajectory, 14.0);
-    WheelTrack track;
-    for (const WheelSample& w : rec.wheels) track.Append(w);
+    const WheelTrack track = TrackOf(rec);
     const auto true_model = MakeDriveModel(sim.robot.drive, rec.true_params);
     const auto nominal_model = MakeDriveModel(rec.robot);
     const Pose2 nominal_mount{rec.robot.lidar2d->x, rec.robot.lidar2d->y, rec.robot.lidar2d->yaw};

@@ -562,6 +562,23 @@ double ChiSquareUpperTail(double x, int dof) {
   return x <= 0 ? 1.0 : Eigen::numext::igammac(0.5 * dof, 0.5 * x);
 }
 
+EstimateDifference CompareEstimates(const Eigen::VectorXd& delta, const Eigen::MatrixXd& sum,
+                                    const std::vector<std::string>& names) {
+  EstimateDifference d;
+  d.dof = static_cast<int>(delta.size());
+  d.d2 = delta.dot(sum.ldlt().solve(delta));
+  if (!std::isfinite(d.d2) || d.d2 < 0) d.d2 = INFINITY;
+  d.p = ChiSquareUpperTail(d.d2, d.dof);
+  for (int i = 0; i < d.dof; ++i) {
+    const double sigmas = std::abs(delta[i]) / std::sqrt(sum(i, i));
+    if (sigmas > d.largest_sigmas || d.largest.empty()) {
+      d.largest = names[i];
+      d.largest_sigmas = sigmas;
+    }
+  }
+  return d;
+}
+
 namespace {
 
 // A result's estimates in the order of its `estimated_names` (and `covariance`).
@@ -598,17 +615,12 @@ std::optional<HalvesAgreement> CompareHalves(const RobotDescription& robot, cons
       return std::nullopt;  // a value one half cannot determine
     delta[i] = WrapAngle(theirs[i].value - mine[i].value);  // a no-op on all but the angles
     a.heldout_fit[fit.estimated_names[i]] = theirs[i];
-    const double sigmas = std::abs(delta[i]) / std::sqrt(sum(i, i));
-    if (a.largest.empty() || sigmas > a.largest_sigmas) {
-      a.largest = fit.estimated_names[i];
-      a.largest_sigmas = sigmas;
-      a.largest_in_fit = mine[i];
-    }
   }
-  a.dof = dim;
-  a.d2 = delta.dot(sum.ldlt().solve(delta));
-  if (!std::isfinite(a.d2) || a.d2 < 0.0) return std::nullopt;
-  a.p = ChiSquareUpperTail(a.d2, dim);
+  const EstimateDifference d = CompareEstimates(delta, sum, fit.estimated_names);
+  if (std::isinf(d.d2)) return std::nullopt;
+  a.d2 = d.d2, a.dof = d.dof, a.p = d.p, a.largest = d.largest, a.largest_sigmas = d.largest_sigmas;
+  const auto largest = std::find(fit.estimated_names.begin(), fit.estimated_names.end(), d.largest);
+  a.largest_in_fit = mine[largest - fit.estimated_names.begin()];
   return a;
 }
 

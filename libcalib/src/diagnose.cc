@@ -382,7 +382,7 @@ Fit Diagnoser::FitModel(const Model& start, const std::vector<int>& free,
     }
     const Eigen::LDLT<Eigen::MatrixXd> ldlt(V);
     fit.wald = (ldlt.info() == Eigen::Success && V.diagonal().minCoeff() > 0) ? b.dot(ldlt.solve(b)) : 0.0;
-    fit.p = Chi2Sf(fit.wald, static_cast<int>(tested.size()));
+    fit.p = ChiSquareUpperTail(fit.wald, static_cast<int>(tested.size()));
   }
   return fit;
 }
@@ -1147,7 +1147,7 @@ DiagnoseReport Diagnoser::Select(const Model& start, const CalibrationResult& ca
       const int a = int(std::find(free.begin(), free.end(), cands[ix].beta[0]) - free.begin());
       const int b = int(free.size()) - 1;
       const double corr = joint.cov(a, b) / std::sqrt(std::max(joint.cov(a, a) * joint.cov(b, b), 1e-300));
-      const double px = joint.cov(a, a) > 0 ? Chi2Sf(std::pow(joint.m.beta[cands[ix].beta[0]], 2) / joint.cov(a, a), 1) : 1.0;
+      const double px = joint.cov(a, a) > 0 ? ChiSquareUpperTail(std::pow(joint.m.beta[cands[ix].beta[0]], 2) / joint.cov(a, a), 1) : 1.0;
       const double level = alpha_odo / m_odo;
       if (px >= level && joint.p >= level) {
         report.indistinguishable.push_back({x, y, corr, pair.motion});

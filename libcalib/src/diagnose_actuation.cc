@@ -214,7 +214,7 @@ void DiagnoseActuation(const RobotDescription& robot, const DiagnoseData& data,
     const double sigma2 = std::max(rms_a * rms_a, 1e-300);
     const double lr = ra.empty() ? 0.0 : (rms_b * rms_b - rms_a * rms_a) * ra.size() / sigma2 / tau_int;
     const double t = lr > 0 ? std::sqrt(lr) : 0.0;
-    const double p = Chi2Sf(lr, 1);
+    const double p = ChiSquareUpperTail(lr, 1);
     const double gain = rms_b > 0 ? 1 - rms_a / rms_b : 0.0;
     // Standard error from the curvature of the fit blocks' squared error (Gauss-Newton),
     // inflated by the correlation time.

@@ -9,12 +9,6 @@
 
 namespace calib::diag {
 
-// Survival function of a chi-square variable with 1 or 2 degrees of freedom.
-inline double Chi2Sf(double x, int dof) {
-  if (!(x > 0)) return 1.0;
-  return dof == 1 ? std::erfc(std::sqrt(x / 2.0)) : std::exp(-x / 2.0);
-}
-
 // Upper normal quantile z with P(Z > z) = p.
 inline double NormalUpper(double p) {
   double lo = -10, hi = 40;

@@ -499,24 +499,14 @@ ImprovementTest TestImprovement(const std::vector<double>& current,
 
 ConsistencyTest TestConsistency(const CalibrationInUse& in_use, const CalibrationInUse& candidate,
                                 double alpha) {
-  ConsistencyTest c;
   const int k = static_cast<int>(in_use.names.size());
   Eigen::VectorXd delta = candidate.value - in_use.value;
   for (int i = 0; i < k; ++i)
     if (IsAngle(in_use.names[i])) delta[i] = WrapAngle(delta[i]);
-  const Eigen::MatrixXd sum = in_use.covariance + candidate.covariance;
-  c.dof = k;
-  c.d2 = delta.dot(sum.ldlt().solve(delta));
-  if (!std::isfinite(c.d2) || c.d2 < 0) c.d2 = INFINITY;
-  c.p = ChiSquareUpperTail(c.d2, k);
+  const EstimateDifference d = CompareEstimates(delta, in_use.covariance + candidate.covariance, in_use.names);
+  ConsistencyTest c;
+  c.d2 = d.d2, c.dof = d.dof, c.p = d.p, c.largest = d.largest, c.largest_sigmas = d.largest_sigmas;
   c.consistent = c.p >= alpha;
-  for (int i = 0; i < k; ++i) {
-    const double sigmas = std::abs(delta[i]) / std::sqrt(sum(i, i));
-    if (sigmas > c.largest_sigmas || c.largest.empty()) {
-      c.largest = in_use.names[i];
-      c.largest_sigmas = sigmas;
-    }
-  }
   return c;
 }
 

@@ -165,6 +165,20 @@ struct HalvesAgreement {
 // P(chi2 > x) with `dof` degrees of freedom.
 double ChiSquareUpperTail(double x, int dof);
 
+// Two estimates of the same values compared: `delta` their difference (angles wrapped),
+// `sum` the sum of their covariances, `names` the values' names. d2 is the squared
+// Mahalanobis distance, a chi-square with one degree per value (infinite when `sum` cannot
+// weigh the difference); `largest` the value that differs most, in combined sigmas.
+struct EstimateDifference {
+  double d2 = 0.0;
+  int dof = 0;
+  double p = 1.0;
+  std::string largest;
+  double largest_sigmas = 0.0;
+};
+EstimateDifference CompareEstimates(const Eigen::VectorXd& delta, const Eigen::MatrixXd& sum,
+                                    const std::vector<std::string>& names);
+
 struct HeldoutComparison {
   int intervals = 0;
   double window_m = 0.0;     // path length of a window
