@@ -165,10 +165,10 @@ int Run(int argc, char** argv) {
   RequireGoodBus(lcm, url);
   WheelListener wheels;
   SafetyListener safety_listener(&safety);
-  lcm.subscribe(calib::kWheelsChannel, &WheelListener::OnWheels, &wheels);
-  if (watch_scans) lcm.subscribe(robot.lidar2d->channel, &SafetyListener::OnScan, &safety_listener);
-  lcm.subscribe(calib::kHeartbeatChannel, &SafetyListener::OnHeartbeat, &safety_listener);
-  lcm.subscribe(calib::kStopChannel, &SafetyListener::OnStop, &safety_listener);
+  SubscribeEveryMessage(lcm, calib::kWheelsChannel, &WheelListener::OnWheels, &wheels);
+  if (watch_scans) SubscribeEveryMessage(lcm, robot.lidar2d->channel, &SafetyListener::OnScan, &safety_listener);
+  SubscribeEveryMessage(lcm, calib::kHeartbeatChannel, &SafetyListener::OnHeartbeat, &safety_listener);
+  SubscribeEveryMessage(lcm, calib::kStopChannel, &SafetyListener::OnStop, &safety_listener);
   Heartbeat heartbeat(&lcm, "commander");
   InstallStopHandlers();
 

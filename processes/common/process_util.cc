@@ -54,9 +54,15 @@ void Heartbeat::Beat(const std::string& state, bool force) {
   lcm_->publish(calib::kHeartbeatChannel, &msg);
 }
 
+void HandleQueued(lcm::LCM& lcm, double limit_s) {
+  const int64_t until = WallMicros() + static_cast<int64_t>(limit_s * 1e6);
+  while (WallMicros() < until && lcm.handleTimeout(0) > 0) {
+  }
+}
+
 CatchUpInput::CatchUpInput(lcm::LCM* lcm, const std::vector<std::string>& channels, Deliver deliver)
     : lcm_(lcm), channels_(channels), deliver_(std::move(deliver)) {
-  for (const std::string& c : channels_) lcm_->subscribe(c, &CatchUpInput::OnMessage, this);
+  for (const std::string& c : channels_) SubscribeEveryMessage(*lcm_, c, &CatchUpInput::OnMessage, this);
 }
 
 void CatchUpInput::OnMessage(const lcm::ReceiveBuffer* buffer, const std::string& channel) {

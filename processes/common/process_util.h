@@ -12,6 +12,7 @@
 #include <map>
 #include <optional>
 #include <string>
+#include <utility>
 #include <vector>
 
 #include "calib/catch_up.h"
@@ -37,6 +38,21 @@ class LcmSink : public calib::MessageSink {
 // Throws calib::InputError naming the URL if the bus did not open. `url` is
 // the --lcm-url given ("" = LCM_DEFAULT_URL or LCM's default).
 void RequireGoodBus(lcm::LCM& lcm, const std::string& url);
+
+// lcm.subscribe(args...) keeping every message. LCM queues at most 30 messages per
+// subscription by default and silently drops the rest while the process is busy (a slow
+// scan match, a loaded machine: 60 ms of WHEELS at a 5x replay), and one lost WHEELS message
+// changes every later live result (DESIGN.md: live = offline). Displays may keep the default.
+template <typename... SubscribeArgs>
+lcm::Subscription* SubscribeEveryMessage(lcm::LCM& lcm, SubscribeArgs&&... args) {
+  lcm::Subscription* subscription = lcm.subscribe(std::forward<SubscribeArgs>(args)...);
+  if (subscription) subscription->setQueueCapacity(0);  // 0: no limit
+  return subscription;
+}
+
+// On stop: handles the messages already received and queued (at most `limit_s` wall
+// seconds), so what was sent before the stop is not lost with the queue.
+void HandleQueued(lcm::LCM& lcm, double limit_s = 2.0);
 
 // Set by SIGINT or SIGTERM once InstallStopHandlers() has run.
 extern std::atomic<bool> g_stop_requested;

@@ -77,8 +77,8 @@ int Run(int argc, char** argv) {
   lcm::LCM lcm(url);
   RequireGoodBus(lcm, url);
   Feeder feeder(robot, &fused);
-  lcm.subscribe(calib::kWheelsChannel, &Feeder::OnWheels, &feeder);
-  lcm.subscribe(robot.imu->channel, &Feeder::OnImu, &feeder);
+  SubscribeEveryMessage(lcm, calib::kWheelsChannel, &Feeder::OnWheels, &feeder);
+  SubscribeEveryMessage(lcm, robot.imu->channel, &Feeder::OnImu, &feeder);
   Heartbeat heartbeat(&lcm, "fusion");
   InstallStopHandlers();
   std::cerr << "agvcal-fusion: " << robot.name << ", WHEELS + " << robot.imu->channel << " -> "
@@ -97,6 +97,7 @@ int Run(int argc, char** argv) {
     publish();
     heartbeat.Beat("running: " + std::to_string(published) + " poses");
   }
+  HandleQueued(lcm);
   fused.Finish();
   publish();
   // The counts received: compared with a recording's, they show a lost message.

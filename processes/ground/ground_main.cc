@@ -94,8 +94,8 @@ int Run(int argc, char** argv) {
   lcm::LCM lcm(url);
   RequireGoodBus(lcm, url);
   Node node(&lcm, &session);
-  lcm.subscribe(session.cloud_channel(), &Node::OnMessage, &node);
-  if (!session.angle_channel().empty()) lcm.subscribe(session.angle_channel(), &Node::OnMessage, &node);
+  SubscribeEveryMessage(lcm, session.cloud_channel(), &Node::OnMessage, &node);
+  if (!session.angle_channel().empty()) SubscribeEveryMessage(lcm, session.angle_channel(), &Node::OnMessage, &node);
   Heartbeat heartbeat(&lcm, "ground");
   InstallStopHandlers();
   std::cerr << "agvcal-ground: " << robot.name << ", listening on " << session.cloud_channel()

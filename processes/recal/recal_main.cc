@@ -50,20 +50,29 @@ class Feeder {
       : robot_(robot), recorder_(recorder) {}
 
   void OnWheels(const lcm::ReceiveBuffer*, const std::string& channel, const agvcal::wheel_state_t* msg) {
+    ++wheel_states_;
     error_.Run([&] { recorder_->AddWheels(calib::WheelSampleFromMessage(*msg, robot_, channel)); });
   }
   void OnScanMatch(const lcm::ReceiveBuffer*, const std::string& channel, const agvcal::scan_match_t* msg) {
+    ++scan_matches_;
     error_.Run([&] { recorder_->AddMotion(calib::FromMessage(*msg, channel)); });
   }
   void OnPose(const lcm::ReceiveBuffer*, const std::string&, const agvcal::pose2d_t* msg) {
+    ++poses_;
     error_.Run([&] { recorder_->AddPose(*msg); });
   }
   const std::optional<std::string>& error() const { return error_.message(); }
+  // What was received, for the stop line: a shortfall against the recording means lost messages.
+  std::string Received() const {
+    return std::to_string(wheel_states_) + " wheel states, " + std::to_string(scan_matches_) + " scan matches, " +
+           std::to_string(poses_) + " poses";
+  }
 
  private:
   const calib::RobotDescription& robot_;
   calib::SegmentRecorder* recorder_;
   agvcal_process::FirstError error_;
+  int64_t wheel_states_ = 0, scan_matches_ = 0, poses_ = 0;
 };
 
 int Run(int argc, char** argv) {
@@ -83,9 +92,9 @@ int Run(int argc, char** argv) {
   RequireGoodBus(lcm, url);
   calib::SegmentRecorder recorder(config, robot, source);
   Feeder feeder(robot, &recorder);
-  lcm.subscribe(calib::kWheelsChannel, &Feeder::OnWheels, &feeder);
-  if (source == calib::MotionSource::kLidar2d) lcm.subscribe(calib::kScanMatchChannel, &Feeder::OnScanMatch, &feeder);
-  lcm.subscribe(robot.pose ? robot.pose->channel : calib::kPoseChannel, &Feeder::OnPose, &feeder);
+  SubscribeEveryMessage(lcm, calib::kWheelsChannel, &Feeder::OnWheels, &feeder);
+  if (source == calib::MotionSource::kLidar2d) SubscribeEveryMessage(lcm, calib::kScanMatchChannel, &Feeder::OnScanMatch, &feeder);
+  SubscribeEveryMessage(lcm, robot.pose ? robot.pose->channel : calib::kPoseChannel, &Feeder::OnPose, &feeder);
   Heartbeat heartbeat(&lcm, "recal");
   InstallStopHandlers();
 
@@ -114,10 +123,11 @@ int Run(int argc, char** argv) {
                    " accepted, " + std::to_string(rejected) + " rejected, " + std::to_string(no_fit) + " no fit" +
                    (pending.valid() ? ", deciding" : ""));
   }
+  HandleQueued(lcm);
   if (pending.valid()) finish();  // a decision under way is written whole
   heartbeat.Beat("stopped", true);
   if (feeder.error()) throw calib::InputError("bus", "message", *feeder.error());
-  std::cerr << "agvcal-recal: stopped; " << recorder.segments_complete() << " segments ("
+  std::cerr << "agvcal-recal: stopped; received " << feeder.Received() << "; " << recorder.segments_complete() << " segments ("
             << recorder.segments_dropped() << " dropped), " << accepted << " accepted, " << rejected
             << " rejected, " << no_fit << " no fit\n";
   return calib::kExitOk;

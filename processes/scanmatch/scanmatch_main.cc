@@ -42,6 +42,7 @@ class Feeder {
 
   void OnWheels(const lcm::ReceiveBuffer*, const std::string& channel,
                 const agvcal::wheel_state_t* msg) {
+    ++wheel_states_;
     try {
       pipeline_->AddWheels(calib::WheelSampleFromMessage(*msg, robot_, channel));
     } catch (const std::exception& e) {
@@ -59,6 +60,7 @@ class Feeder {
   }
 
   int64_t rejected() const { return rejected_; }
+  int64_t wheel_states() const { return wheel_states_; }
 
  private:
   void Reject(const std::exception& e) {
@@ -68,7 +70,7 @@ class Feeder {
 
   const calib::RobotDescription& robot_;
   calib::ScanMatchPipeline* pipeline_;
-  int64_t rejected_ = 0;
+  int64_t rejected_ = 0, wheel_states_ = 0;
 };
 
 int Run(int argc, char** argv) {
@@ -82,8 +84,8 @@ int Run(int argc, char** argv) {
   lcm::LCM lcm(url);
   RequireGoodBus(lcm, url);
   Feeder feeder(robot, &pipeline);
-  lcm.subscribe(calib::kWheelsChannel, &Feeder::OnWheels, &feeder);
-  lcm.subscribe(robot.lidar2d->channel, &Feeder::OnScan, &feeder);
+  SubscribeEveryMessage(lcm, calib::kWheelsChannel, &Feeder::OnWheels, &feeder);
+  SubscribeEveryMessage(lcm, robot.lidar2d->channel, &Feeder::OnScan, &feeder);
   Heartbeat heartbeat(&lcm, "scanmatch");
   InstallStopHandlers();
   std::cerr << "agvcal-scanmatch: " << robot.name << ", matching " << robot.lidar2d->channel
@@ -108,10 +110,12 @@ int Run(int argc, char** argv) {
     publish();
     heartbeat.Beat(state("running"));
   }
+  HandleQueued(lcm);
   pipeline.Finish();
   publish();
   const calib::ScanMatchCounts& c = pipeline.counts();
-  std::cerr << "agvcal-scanmatch: stopped; " << c.scans << " scans, " << c.matches << " matches ("
+  std::cerr << "agvcal-scanmatch: stopped; received " << c.scans << " scans and " << feeder.wheel_states()
+            << " wheel states; " << c.matches << " matches ("
             << c.invalid << " failed, " << c.degenerate
             << " degenerate); dropped: " << c.scans_dropped << " scans and " << c.wheels_dropped
             << " wheel states out of order, " << c.scans_uncovered << " scans without wheel data, "

@@ -65,7 +65,7 @@ int Run(int argc, char** argv) {
   RequireGoodBus(lcm, url);
   LcmSink sink(&lcm);
   CommandListener listener(&sim, sim.config().robot);
-  lcm.subscribe(calib::kDriveCmdChannel, &CommandListener::OnCommand, &listener);
+  SubscribeEveryMessage(lcm, calib::kDriveCmdChannel, &CommandListener::OnCommand, &listener);
   Heartbeat heartbeat(&lcm, "sim");
   InstallStopHandlers();
 

@@ -21,10 +21,10 @@ exit \$status
 RUN
 expect_status 0 "replay into agvcal-scanmatch, stopped with SIGINT" \
   timeout 120 scripts/netns-run bash "$TMP/run.sh"
-if grep -q "agvcal-scanmatch: stopped; 580 scans" "$TMP/scanmatch.err"; then
-  pass "every scan received"
+if grep -q "agvcal-scanmatch: stopped; received 580 scans and 2901 wheel states" "$TMP/scanmatch.err"; then
+  pass "every scan and wheel state received"
 else
-  fail "scans lost: $(tail -c 400 "$TMP/scanmatch.err")"
+  fail "messages lost: $(tail -c 400 "$TMP/scanmatch.err")"
 fi
 if "$CHECK" scanmatch "$log" "$robot" "$TMP/live.log"; then
   pass "live SCAN_MATCH identical to the offline pipeline"
