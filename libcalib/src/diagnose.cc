@@ -254,6 +254,14 @@ void Diagnoser::BuildIntervals() {
     if (m.valid) spread[{m.utime_start, m.utime_end}] = &m;
   const int64_t t_first = usable.front()->utime_start;
   const auto& ut = track_.utime;
+  const double lead_s = data_.deskew_robot ? data_.deskew_lead_s : 0.0;
+  const std::unique_ptr<DriveModel> deskew_model = lead_s > 0 ? MakeDriveModel(*data_.deskew_robot) : nullptr;
+  // The de-skew odometry over the lead after a stamp, on the wheel clock the matcher used.
+  auto deskew_over_lead = [&](int64_t stamp) {
+    if (!deskew_model) return Pose2{};
+    const double t = stamp - data_.deskew_offset_s * 1e6;
+    return data_.wheels.Odometry(*deskew_model, t, t + lead_s * 1e6);
+  };
   for (const SensorMotion* m : usable) {
     Interval it;
     it.motion = m;
@@ -267,7 +275,7 @@ void Diagnoser::BuildIntervals() {
     it.model = std::make_unique<IntervalModel>(
         &track_, first, last, m->utime_start, (m->utime_end - m->utime_start) * 1e-6,
         Eigen::Vector3d(m->delta.x, m->delta.y, m->delta.theta), SqrtInformation(m->covariance),
-        SpreadDerivative(m, spread));
+        SpreadDerivative(m, spread), lead_s, deskew_over_lead(m->utime_start), deskew_over_lead(m->utime_end));
     it.function = std::make_unique<ceres::AutoDiffCostFunction<IntervalModel, 3, 5, 3, kNumBeta>>(
         it.model.get(), ceres::DO_NOT_TAKE_OWNERSHIP);
     intervals_.push_back(std::move(it));
@@ -1257,6 +1265,7 @@ void ReadMotions(const RobotDescription& robot, const std::string& log_path,
   // Beam timing the scans declare: all zero makes scan_distortion testable.
   int64_t zero_timing = 0, scans = 0;
   std::vector<int64_t> stamps;
+  std::vector<double> leads;  // per scan: mean time of the beams with a return after the stamp, s
   double scan_time = 0;
   const std::string scan_channel = robot.lidar2d ? robot.lidar2d->channel : kScanChannel;
   auto check_scan = [&](LaserScan* scan) {
@@ -1264,6 +1273,11 @@ void ReadMotions(const RobotDescription& robot, const std::string& log_path,
     zero_timing += scan->time_increment == 0.0;
     if (scan->scan_time > 0) scan_time = scan->scan_time;
     stamps.push_back(scan->utime);
+    double sum = 0;
+    int returns = 0;
+    for (int i = 0; i < scan->size(); ++i)
+      if (scan->HasReturn(i)) sum += i * scan->time_increment, ++returns;
+    leads.push_back(returns > 0 ? sum / returns : 0.0);
     scan->utime -= shift_us;
   };
   auto restore = [shift_us](std::vector<SensorMotion> motions) {
@@ -1274,6 +1288,13 @@ void ReadMotions(const RobotDescription& robot, const std::string& log_path,
                                                   std::function<void(LaserScan*)>(check_scan));
   out.wheels = cal.wheels();
   out.motions = restore(cal.motions());
+  out.deskew_robot = robot;
+  out.deskew_offset_s = shift_us * 1e-6;
+  out.deskew_lead_s = 0.0;
+  if (!leads.empty() && out.source == MotionSource::kLidar2d) {
+    std::nth_element(leads.begin(), leads.begin() + leads.size() / 2, leads.end());
+    out.deskew_lead_s = leads[leads.size() / 2];
+  }
   if (scans > 10 && zero_timing == scans) {
     if (!(scan_time > 0)) {
       std::vector<int64_t> gaps;

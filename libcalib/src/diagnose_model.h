@@ -63,9 +63,11 @@ class IntervalModel {
  public:
   IntervalModel(const Track* track, std::size_t first, std::size_t last, int64_t utime_start,
                 double duration, const Eigen::Vector3d& measured, const Eigen::Matrix3d& sqrt_information,
-                const Eigen::Vector3d& distortion)
+                const Eigen::Vector3d& distortion, double deskew_lead = 0.0, const Pose2& deskew_head = {},
+                const Pose2& deskew_tail = {})
       : tr_(track), first_(first), last_(last), t0_(utime_start), duration_(duration),
-        measured_(measured), sqrt_information_(sqrt_information), distortion_(distortion) {}
+        measured_(measured), sqrt_information_(sqrt_information), distortion_(distortion),
+        lead_(deskew_lead), deskew_head_(deskew_head), deskew_tail_(deskew_tail) {}
 
   template <typename T>
   bool operator()(const T* params, const T* mount, const T* beta, T* residual) const {
@@ -93,8 +95,10 @@ class IntervalModel {
     // integrated exactly at the offset's current value; its derivative comes from the
     // smoothed wheel speeds at the window's ends (below), not from the encoder samples the
     // prediction itself uses, so encoder noise cannot correlate with its own regressor.
+    // De-skewed scans: the window moves by the lead, the de-skew odometry over the lead closes
+    // it at both ends (DiagnoseData::deskew_lead_s).
     const double offset_v = Scalar(beta[kTimeOffset]);
-    const T a = T(-offset_v), b = T(duration_ - offset_v);
+    const T a = T(lead_ - offset_v), b = T(duration_ + lead_ - offset_v);
     // The lag filter starts where its memory has faded; its state there is the
     // ramp response u - tau * slope (exact for a steering ramp).
     double lead = std::min(kHistoryS, 8.0 * tau_v);
@@ -172,6 +176,11 @@ class IntervalModel {
       const P tail = generic::Exp(T(d_offset * eb[0]), T(d_offset * eb[1]), T(d_offset * eb[2]));
       q = generic::Compose(generic::Compose(head, q), generic::Inverse(tail));
     }
+    if (lead_ > 0) {
+      const P head{T(deskew_head_.x), T(deskew_head_.y), T(deskew_head_.theta)};
+      const P tail{T(deskew_tail_.x), T(deskew_tail_.y), T(deskew_tail_.theta)};
+      q = generic::Compose(generic::Compose(head, q), generic::Inverse(tail));
+    }
     const P l{mount[0], mount[1], mount[2]};
     const P z = generic::Compose(generic::Compose(generic::Inverse(l), q), l);
     T measured[3];
@@ -224,6 +233,8 @@ class IntervalModel {
   Eigen::Vector3d measured_;
   Eigen::Matrix3d sqrt_information_;
   Eigen::Vector3d distortion_;  // d(measured)/d(scan period), per second of period
+  double lead_;                 // s: the de-skewed scans' mean beam time after the stamp
+  Pose2 deskew_head_, deskew_tail_;  // de-skew odometry over the lead after each stamp
 };
 
 }  // namespace calib::diag

@@ -57,6 +57,15 @@ struct DiagnoseData {
   // their beams spread over `scan_period_s`: the first-order effect of scan_distortion.
   double scan_period_s = 0.0;  // 0: the scans declare their timing (scan_distortion not testable)
   std::vector<SensorMotion> motions_spread;
+  // The matcher de-skews each scan with `deskew_robot`'s odometry (no effects), on the wheel
+  // clock `deskew_offset_s` before the stamps. The registration then places the scan where its
+  // beams sit on average, `deskew_lead_s` (the mean beam time) after its stamp, less the
+  // de-skew odometry over that lead: a match carries the truth over the interval shifted by the
+  // lead, so what the de-skew model leaves out (an eccentric wheel's phase) shows shifted by it.
+  // 0: the scans were not de-skewed.
+  double deskew_lead_s = 0.0;
+  double deskew_offset_s = 0.0;
+  std::optional<RobotDescription> deskew_robot;
 };
 
 // Reads WHEELS, the motion sensor (scan-matched SCAN or POSE) and DRIVE_CMD. The scans
