@@ -56,7 +56,7 @@ void Heartbeat::Beat(const std::string& state, bool force) {
 
 void HandleQueued(lcm::LCM& lcm, double limit_s) {
   const int64_t until = WallMicros() + static_cast<int64_t>(limit_s * 1e6);
-  while (WallMicros() < until && lcm.handleTimeout(0) > 0) {
+  while (WallMicros() < until && lcm.handleTimeout(50) > 0) {
   }
 }
 

@@ -50,8 +50,9 @@ lcm::Subscription* SubscribeEveryMessage(lcm::LCM& lcm, SubscribeArgs&&... args)
   return subscription;
 }
 
-// On stop: handles the messages already received and queued (at most `limit_s` wall
-// seconds), so what was sent before the stop is not lost with the queue.
+// On stop: handles the messages already received or still arriving (until 50 ms pass
+// without one, at most `limit_s` wall seconds), so what was sent before the stop is not
+// lost with the queue.
 void HandleQueued(lcm::LCM& lcm, double limit_s = 2.0);
 
 // Set by SIGINT or SIGTERM once InstallStopHandlers() has run.

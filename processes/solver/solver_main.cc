@@ -173,10 +173,8 @@ int Run(int argc, char** argv) {
     heartbeat.Beat("running");
   }
   // Messages already received when the stop came (e.g. the scan matcher's last
-  // matches, sent just before it stopped) still count; at most 2 s of them.
-  const int64_t drain_end = WallMicros() + 2000000;
-  while (WallMicros() < drain_end && lcm.handleTimeout(50) > 0) {
-  }
+  // matches, sent just before it stopped) still count.
+  HandleQueued(lcm);
   if (solver.error()) throw calib::InputError("bus", "message", *solver.error());
   const calib::CalibrationResult result = solver.Solve(true);
   if (args.Has("--out")) calib::WriteFileAtomically(args.Get("--out", ""), calib::CalibrationResultJson(result));
