@@ -63,9 +63,11 @@ const CandidateOutcome& Outcome(const DiagnoseReport& r, const std::string& name
 }
 
 // How much lower the held-out error is with the effect, by the effect's own measure:
-// dead-reckoning drift over held-out windows, or the residual where it acts.
+// dead-reckoning drift over held-out windows, the error chained over the stretch of each
+// held-out block where it acts most, or the residual per interval where it acts.
 double HeldoutGain(const FoundEffect& e) {
   if (e.heldout_measure == "drift") return 1.0 - e.heldout_drift_after / e.heldout_drift_before;
+  if (e.heldout_measure == "stretch") return 1.0 - e.heldout_stretch_after / e.heldout_stretch_before;
   return 1.0 - e.heldout_rms_after / e.heldout_rms_before;
 }
 
@@ -145,6 +147,24 @@ TEST(Diagnose, SmallLateralSlipShowsInHeldoutDrift) {
   EXPECT_GE(e->drift_windows, 10);
   EXPECT_GT(HeldoutGain(*e), 1.0 - e->heldout_rms_all_after / e->heldout_rms_all_before)
       << "chained, the slip stands out more than per interval";
+}
+
+// A time offset at the concealed-effect suite's size: per interval it is the offset times the
+// change of turn rate over a keyframe's half second, below the scan matcher's noise; over the
+// stretch of a held-out block from its lowest to its highest turn rate the chained error is
+// the offset times the whole change, while the registration error stays that of two scans.
+TEST(Diagnose, SmallTimeOffsetShowsOverHeldoutStretches) {
+  SimConfig c = Sim("diff_robot", 32);
+  c.effects.time_offset_s = 0.00023;
+  const DiagnoseReport r = DiagnoseSim(c);
+  ExpectFound(r, "time_offset", "offset_s", 0.00023);
+  const FoundEffect* e = Find(r, "time_offset");
+  ASSERT_NE(e, nullptr);
+  EXPECT_EQ(e->heldout_measure, "stretch");
+  EXPECT_EQ(e->component, "yaw");
+  EXPECT_GE(e->stretches.size(), 5u);
+  EXPECT_GT(HeldoutGain(*e), 1.0 - e->heldout_rms_after / e->heldout_rms_before)
+      << "over a stretch the offset stands out more than per interval";
 }
 
 TEST(Diagnose, DriveLagInTheActuationLayer) {
@@ -283,7 +303,10 @@ TEST(Diagnose, ReportFilesAndSimConfig) {
   EXPECT_TRUE(j["unexplained"].is_array());
   const std::string dir = "/tmp/agvcal_diagnose_test_report_" + std::to_string(::getpid());
   WriteDiagnoseReportDir(r, dir);
-  for (const char* f : {"summary.txt", "index.html", "residual_time.svg", "route.svg", "signature_1_steering_backlash.svg"})
+  EXPECT_EQ(j["effects"][0]["heldout_stretch"]["per_stretch"].size(), r.effects[0].stretches.size());
+  EXPECT_GE(r.effects[0].stretches.size(), 5u);
+  for (const char* f : {"summary.txt", "index.html", "residual_time.svg", "route.svg", "signature_1_steering_backlash.svg",
+                        "heldout_1_steering_backlash.svg"})
     EXPECT_TRUE(std::filesystem::exists(dir + "/" + f)) << f;
   std::filesystem::remove_all(dir);
   // The written sim config reproduces the robot: truth = refitted calibration, effect = found.

@@ -129,6 +129,7 @@ struct Interval {
   const SensorMotion* motion = nullptr;
   std::unique_ptr<IntervalModel> model;
   std::unique_ptr<ceres::CostFunction> function;
+  int block = 0;  // index of its fit (even) or held-out (odd) block
   bool heldout = false, outlier = false;
   Eigen::Vector3d sigma = Eigen::Vector3d::Ones();  // unscaled measurement std per component
 };
@@ -205,6 +206,7 @@ class Diagnoser {
     double span_gain() const { return rms_before > 0 ? 1.0 - rms_after / rms_before : 0.0; }
   };
   OdometryError HeldoutDrift(const Model& m) const;
+  std::vector<HeldoutStretch> HeldoutStretches(const Candidate& c, const Model& with, const Model& without, int comp) const;
   Localized Localize(const Candidate& c, const Model& with, const Model& without) const;
   void FindUnexplained(DiagnoseReport* report) const;
 
@@ -266,7 +268,8 @@ void Diagnoser::BuildIntervals() {
     Interval it;
     it.motion = m;
     const int64_t mid = (m->utime_start + m->utime_end) / 2;
-    it.heldout = int64_t((mid - t_first) * 1e-6 / options_.block_s) % 2 == 1;
+    it.block = static_cast<int>((mid - t_first) * 1e-6 / options_.block_s);
+    it.heldout = it.block % 2 == 1;
     std::size_t first = std::upper_bound(ut.begin(), ut.end(), int64_t(m->utime_start - margin)) - ut.begin();
     first = first > 0 ? first - 1 : 0;
     std::size_t last = std::lower_bound(ut.begin(), ut.end(), int64_t(m->utime_end + kMaxOffsetS * 1e6)) - ut.begin();
@@ -645,6 +648,63 @@ OdometryError Diagnoser::HeldoutDrift(const Model& m) const {
   return OdometryErrorOverWindows(steps, options_.drift_window_s, false);
 }
 
+// The effect over stretches of held-out motion: in each run of consecutive held-out intervals
+// (a held-out block, cut where an outlier breaks the chain) the stretch over which the effect
+// changes the chained motion most in `comp`, chosen from the two models' predictions alone,
+// never from the measurement. An effect whose error telescopes along a chain (a time offset:
+// offset x the change of speed or turn rate; a longitudinal slip: k (v1^2 - v0^2) / 2) or
+// cancels over a revolution (eccentricity) is small per interval against the scan matcher's
+// noise; from its low to its high point it is as large as the block allows, while the
+// registration error stays that of the stretch's two end scans.
+std::vector<HeldoutStretch> Diagnoser::HeldoutStretches(const Candidate& c, const Model& with,
+                                                        const Model& without, int comp) const {
+  Model zeroed = with;
+  for (int b : c.beta) zeroed.beta[b] = 0.0;
+  std::vector<HeldoutStretch> out;
+  auto add_run = [&](const std::vector<const Interval*>& run) {
+    // Prefix chains of the measured motion and of each model's prediction (measured - error).
+    const std::size_t n = run.size();
+    std::vector<Pose2> measured(n + 1), before(n + 1), after(n + 1), without_effect(n + 1);
+    for (std::size_t k = 0; k < n; ++k) {
+      const Pose2& z = run[k]->motion->delta;
+      auto predicted = [&](const Model& m) {
+        const Eigen::Vector3d e = ErrorOf(*run[k], m);
+        return Pose2{z.x - e[0], z.y - e[1], z.theta - e[2]};
+      };
+      measured[k + 1] = Compose(measured[k], z);
+      before[k + 1] = Compose(before[k], predicted(without));
+      after[k + 1] = Compose(after[k], predicted(with));
+      without_effect[k + 1] = Compose(without_effect[k], predicted(zeroed));
+    }
+    auto error = [&](const std::vector<Pose2>& chain, std::size_t i, std::size_t j) {
+      const Pose2 d = Between(Between(chain[i], chain[j]), Between(measured[i], measured[j]));
+      return Eigen::Vector3d(d.x, d.y, WrapAngle(d.theta))[comp];
+    };
+    double largest = -1;
+    std::size_t from = 0, to = 0;
+    for (std::size_t i = 0; i < n; ++i)
+      for (std::size_t j = i + 1; j <= n; ++j) {
+        const double contribution = std::abs(error(without_effect, i, j) - error(after, i, j));
+        if (contribution > largest) largest = contribution, from = i, to = j;
+      }
+    if (to == 0) return;
+    out.push_back({run[from]->motion->utime_start, run[to - 1]->motion->utime_end, error(before, from, to),
+                   error(after, from, to)});
+  };
+  std::vector<const Interval*> run;
+  for (const Interval& it : intervals_) {
+    const bool continues = !run.empty() && run.back()->block == it.block &&
+                           run.back()->motion->utime_end == it.motion->utime_start;
+    if (!continues || !it.heldout || it.outlier) {
+      if (!run.empty()) add_run(run);
+      run.clear();
+    }
+    if (it.heldout && !it.outlier) run.push_back(&it);
+  }
+  if (!run.empty()) add_run(run);
+  return out;
+}
+
 FoundEffect Diagnoser::Describe(const Candidate& c, const Fit& final_fit, const Fit& without,
                                 const DiagnoseReport& report) const {
   FoundEffect fe;
@@ -706,7 +766,16 @@ FoundEffect Diagnoser::Describe(const Candidate& c, const Fit& final_fit, const 
   // telescope). Those are judged per interval where they act.
   const bool adds_up = c.name == "lateral_slip" || c.name == "steering_backlash" || c.name == "steering_lag" ||
                        c.name == "scan_distortion" || c.name == "travel_direction_offset";
-  if (adds_up && drift_after.windows > 0) fe.heldout_measure = "drift";
+  fe.stretches = HeldoutStretches(c, final_fit.m, without.m, comp);
+  std::vector<double> stretch_before, stretch_after;
+  for (const HeldoutStretch& h : fe.stretches) stretch_before.push_back(h.before), stretch_after.push_back(h.after);
+  fe.heldout_stretch_before = Rms(stretch_before);
+  fe.heldout_stretch_after = Rms(stretch_after);
+  constexpr std::size_t kMinStretches = 5;
+  if (adds_up && drift_after.windows > 0)
+    fe.heldout_measure = "drift";
+  else if (fe.stretches.size() >= kMinStretches)
+    fe.heldout_measure = "stretch";
   fe.signature = Signature(x, sb, sa);
   std::vector<DiagnosedInterval> kept;
   std::vector<bool> kept_flag;

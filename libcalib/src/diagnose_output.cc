@@ -60,6 +60,15 @@ std::string DiagnoseReportJson(const DiagnoseReport& r) {
       je["heldout_drift"] = {{"component", e.drift_component}, {"window_s", e.drift_window_s},
                              {"windows", e.drift_windows}, {"rms_before", Number(e.heldout_drift_before)},
                              {"rms_after", Number(e.heldout_drift_after)}};
+    if (!e.stretches.empty()) {
+      nlohmann::json per = nlohmann::json::array();
+      for (const HeldoutStretch& h : e.stretches)
+        per.push_back({{"utime_start", h.utime_start}, {"utime_end", h.utime_end}, {"before", Number(h.before)},
+                       {"after", Number(h.after)}});
+      je["heldout_stretch"] = {{"component", e.component}, {"stretches", e.stretches.size()},
+                               {"rms_before", Number(e.heldout_stretch_before)},
+                               {"rms_after", Number(e.heldout_stretch_after)}, {"per_stretch", per}};
+    }
     je["heldout_measure"] = e.heldout_measure;
     je["where"] = Spans(e.where);
     je["regime"] = e.regime;
@@ -129,6 +138,8 @@ std::string DiagnoseSummaryText(const DiagnoseReport& r) {
     s << "No significant unmodelled physics: the calibrated model explains the recording within its noise.\n";
   }
   for (const FoundEffect& e : r.effects) {
+    // The held-out measure that judges the effect is marked.
+    auto judges = [&e](const char* measure) { return e.heldout_measure == measure ? "  <- judges it\n" : "\n"; };
     s << "\nMISSING PHYSICS: " << e.name << (e.wheel.empty() ? "" : " (wheel " + e.wheel + ")") << ", "
       << e.layer << " layer.\n  size:";
     for (const auto& [k, v] : e.params) s << " " << k << " = " << v.value << " +- " << v.std;
@@ -138,12 +149,18 @@ std::string DiagnoseSummaryText(const DiagnoseReport& r) {
     s << "  held-out " << e.component << " residual where it acts: " << e.heldout_rms_before << " -> "
       << e.heldout_rms_after << " " << Unit(e.component) << " (" << Percent(e.heldout_rms_before, e.heldout_rms_after)
       << " lower); over all held-out data " << e.heldout_rms_all_before << " -> " << e.heldout_rms_all_after
-      << " (" << Percent(e.heldout_rms_all_before, e.heldout_rms_all_after) << ")\n";
+      << " (" << Percent(e.heldout_rms_all_before, e.heldout_rms_all_after) << ")" << judges("per_interval");
+    if (!e.stretches.empty()) {
+      s << "  held-out " << e.component << " error chained over the stretch of each held-out block where it acts most ("
+        << e.stretches.size() << " stretches): " << e.heldout_stretch_before << " -> " << e.heldout_stretch_after << " "
+        << Unit(e.component) << " (" << Percent(e.heldout_stretch_before, e.heldout_stretch_after) << " lower)"
+        << judges("stretch");
+    }
     if (!e.drift_component.empty()) {
       const char* unit = e.drift_component == "heading" ? "rad" : "m";
       s << "  held-out dead-reckoning " << e.drift_component << " error over " << e.drift_window_s << " s ("
         << e.drift_windows << " windows): " << e.heldout_drift_before << " -> " << e.heldout_drift_after << " "
-        << unit << " (" << Percent(e.heldout_drift_before, e.heldout_drift_after) << " lower)\n";
+        << unit << " (" << Percent(e.heldout_drift_before, e.heldout_drift_after) << " lower)" << judges("drift");
     }
   }
   for (const Indistinguishable& d : r.indistinguishable)

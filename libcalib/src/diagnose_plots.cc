@@ -67,6 +67,27 @@ void WriteDiagnoseReportDir(const DiagnoseReport& r, const std::string& dir) {
     WriteFileAtomically(dir + "/" + name, plot.Render());
     files.push_back(name);
   }
+  n = 0;
+  for (const FoundEffect& e : r.effects) {  // The held-out proof over stretches.
+    ++n;
+    if (e.stretches.empty()) continue;
+    const std::string name = "heldout_" + std::to_string(n) + "_" + e.name + ".svg";
+    const bool yaw = e.component == "yaw";
+    SvgPlot plot("Held-out proof of " + e.name + ": chained error per stretch, without (grey) and with (blue)");
+    SvgPlot::Panel& p = plot.AddPanel(e.component + " error over the stretch of each held-out block where it acts most",
+                                      "time (s)", yaw ? "mrad" : "mm");
+    SvgPlot::Series b{{}, {}, kBefore, "without", true, {}}, a{{}, {}, kAfter, "with", true, {}};
+    for (const HeldoutStretch& h : e.stretches) {
+      const double t = sec((h.utime_start + h.utime_end) / 2);
+      b.x.push_back(t), b.y.push_back(h.before * 1e3);
+      a.x.push_back(t), a.y.push_back(h.after * 1e3);
+    }
+    SvgPlot::Series zero{{b.x.front(), b.x.back()}, {0, 0}, "#000000", "", false, {}};
+    p.series = {zero, b, a};
+    for (const HeldoutStretch& h : e.stretches) p.spans.push_back({sec(h.utime_start), sec(h.utime_end)});
+    WriteFileAtomically(dir + "/" + name, plot.Render());
+    files.push_back(name);
+  }
   {  // The route with the mismatch spans.
     SvgPlot plot("Route (wheel odometry): where the effects found (red) and unexplained structure (orange) stand out",
                  900, 600);

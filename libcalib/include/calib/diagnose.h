@@ -109,6 +109,12 @@ struct SignatureBin {
   int count = 0;
 };
 
+// The chained error over one held-out stretch, without and with the effect.
+struct HeldoutStretch {
+  int64_t utime_start = 0, utime_end = 0;
+  double before = 0, after = 0;
+};
+
 struct FoundEffect {
   std::string name, layer, wheel;  // effects.md name; wheel role when it applies to one wheel
   std::map<std::string, ParamEstimate> params;
@@ -125,11 +131,17 @@ struct FoundEffect {
   std::string drift_component;  // translation, heading or "" (not measured)
   double drift_window_s = 0, heldout_drift_before = 0, heldout_drift_after = 0;
   int drift_windows = 0;
+  // In `component`, over one stretch of consecutive held-out intervals per held-out block:
+  // the stretch over which the effect changes the chained motion most (chosen from the
+  // models' predictions, not the measurement), RMS over the stretches of the chained error.
+  std::vector<HeldoutStretch> stretches;
+  double heldout_stretch_before = 0, heldout_stretch_after = 0;  // RMS over the stretches
   // The held-out measure that judges the effect: "drift" for effects whose error keeps its
-  // sign and adds up along the way (lateral slip, backlash, steering lag, scan distortion),
-  // "per_interval" (the `heldout_rms_*`) for those whose chained error telescopes to the
-  // window's ends (time offset, longitudinal slip), cancels over a wheel revolution
-  // (eccentricity) or is not chained (actuation).
+  // sign and adds up along the way (lateral slip, backlash, steering lag, scan distortion);
+  // "stretch" for those whose chained error telescopes to the window's ends (time offset,
+  // longitudinal slip) or cancels over a wheel revolution (eccentricity): from its low to its
+  // high point the effect is as large as a block allows; "per_interval" (the `heldout_rms_*`)
+  // for effects not chained (actuation) or too few held-out stretches.
   std::string heldout_measure = "per_interval";
   std::vector<TimeSpan> where;
   std::string regime;     // the motion under which it shows, in words
