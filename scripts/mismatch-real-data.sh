@@ -12,8 +12,8 @@ robots=$here/config/robots/datasets
 source "$here/scripts/dataset-robots.bash"
 ls "$work"/*.log > /dev/null 2>&1 || "$here/scripts/import-datasets.sh" "$work" > "$work/import.txt" || { cat "$work/import.txt"; exit 2; }
 
-echo "| recording | source | verdict | effects found (± 1σ, p after correction) | held-out RMS where they act, before → after | not identifiable | unexplained |"
-echo "|---|---|---|---|---|---|---|"
+echo "| recording | source | verdict | effects found (± 1σ, p after correction) | held-out RMS where they act, before → after | held-out error by the effect's measure, before → after | not identifiable | unexplained |"
+echo "|---|---|---|---|---|---|---|---|"
 for log in "$work"/*.log; do
   name=$(basename "$log" .log)
   robot=$(dataset_robot "$name") || continue
@@ -29,12 +29,22 @@ eff = "; ".join(
     f", p {e['evidence']['p_value']:.1g}" for e in r["effects"]) or "-"
 rms = "; ".join(f"{e['name']} {e['heldout_rms_before']:.3g} → {e['heldout_rms_after']:.3g} {e['heldout_component']}"
                 for e in r["effects"]) or "-"
+def by_measure(e):
+    m = e.get("heldout_measure", "per_interval")
+    if m == "drift":
+        d = e["heldout_drift"]
+        return f"{e['name']} {d['rms_before']:.3g} → {d['rms_after']:.3g} {d['component']} over {d['window_s']:g} s"
+    if m == "stretch":
+        d = e["heldout_stretch"]
+        return f"{e['name']} {d['rms_before']:.3g} → {d['rms_after']:.3g} {d['component']} over {d['stretches']} stretches"
+    return f"{e['name']} per interval (as before)"
+measure = "; ".join(by_measure(e) for e in r["effects"]) or "-"
 ni = ", ".join(c["name"] for c in r["candidates"] if c["status"] == "not_identifiable") or "-"
 un = "; ".join(u["correlates_with"] for u in r["unexplained"]) or "-"
 src = "lidar2d" if any(k.startswith("lidar2d") for k in r["calibration"]) else "pose"
-print(f"| {sys.argv[2]} | {src} | {r['verdict']} | {eff} | {rms} | {ni} | {un} |")
+print(f"| {sys.argv[2]} | {src} | {r['verdict']} | {eff} | {rms} | {measure} | {ni} | {un} |")
 PY
   else
-    echo "| $name | | exit $? | $(head -c 200 "$work/$name.diag.err" | tr '\n|' ' /') | | | |"
+    echo "| $name | | exit $? | $(head -c 200 "$work/$name.diag.err" | tr '\n|' ' /') | | | | |"
   fi
 done

@@ -24,7 +24,8 @@ false-alarm rate over the whole catalogue, and proven on held-out data
 (alternating time blocks the fit never sees). Prints a plain-words summary.
   --out REPORT.json   write the report (spec/cli.md), atomically
   --report DIR        human report: summary.txt and SVG plots (residual over time
-                      before/after, each effect's signature, the route with the spans marked)
+                      before/after, each effect's signature and its held-out error per
+                      stretch, the route with the spans marked)
   --sim SIM_LOG       also diagnose a simulator's recording of the same commands and
                       report where the two differ (REPORT.json key "sim_comparison")
   --write-sim FILE    a simulation config (truth = refitted calibration, effects found)
