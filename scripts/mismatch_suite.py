@@ -222,8 +222,8 @@ def main():
              "held-out motion for effects whose error adds up along the way (lateral slip, backlash, scan",
              "distortion); the error chained over the stretch of each held-out block where the effect acts",
              "most for those whose chained error telescopes to the stretch's ends (time offset, longitudinal",
-             "slip) or cancels over a revolution (wheel eccentricity); the residual per interval where the",
-             "effect acts for those not chained (the actuation effects).", "",
+             "slip); the residual per interval where the effect acts for wheel eccentricity (it cancels over",
+             "a revolution) and those not chained (the actuation effects).", "",
              "| drive | truth | size | runs | named correctly | other effect named | of which reported indistinguishable from the truth | parameter within 20 % or 2σ | held-out error ≥ 20 % lower (its measure) | median reduction: drift over 2 s | median reduction: stretch where it acts most | median reduction: per interval where it acts |",
              "|---|---|---|---|---|---|---|---|---|---|---|---|"]
     confusion = ["", "## What was named", "",

@@ -760,12 +760,14 @@ FoundEffect Diagnoser::Describe(const Candidate& c, const Fit& final_fit, const 
   fe.heldout_drift_before = heading ? drift_before.rms_heading_rad : drift_before.rms_translation_m;
   fe.heldout_drift_after = heading ? drift_after.rms_heading_rad : drift_after.rms_translation_m;
   // Chained over a window, only errors that keep their sign add up: a lateral skid in a turn,
-  // a steering angle off by the play or the lag, a scan smeared by the speed. Others cancel
-  // and leave only the window's ends: an eccentric wheel over each revolution, and a time
-  // offset or a longitudinal slip exactly (the shifted windows, the slip k (v1^2 - v0^2) / 2,
-  // telescope). Those are judged per interval where they act.
+  // a steering angle off by the play or the lag, a scan smeared by the speed; those are judged
+  // by the drift. A time offset's or a longitudinal slip's telescopes to the window's ends (the
+  // shifted windows, the slip k (v1^2 - v0^2) / 2): judged over the stretch from its low to its
+  // high point. An eccentric wheel's cancels over each revolution, and one interval already
+  // spans a third of one: judged per interval where it acts.
   const bool adds_up = c.name == "lateral_slip" || c.name == "steering_backlash" || c.name == "steering_lag" ||
                        c.name == "scan_distortion" || c.name == "travel_direction_offset";
+  const bool telescopes = c.name == "time_offset" || c.name == "longitudinal_slip";
   fe.stretches = HeldoutStretches(c, final_fit.m, without.m, comp);
   std::vector<double> stretch_before, stretch_after;
   for (const HeldoutStretch& h : fe.stretches) stretch_before.push_back(h.before), stretch_after.push_back(h.after);
@@ -774,7 +776,7 @@ FoundEffect Diagnoser::Describe(const Candidate& c, const Fit& final_fit, const 
   constexpr std::size_t kMinStretches = 5;
   if (adds_up && drift_after.windows > 0)
     fe.heldout_measure = "drift";
-  else if (fe.stretches.size() >= kMinStretches)
+  else if (telescopes && fe.stretches.size() >= kMinStretches)
     fe.heldout_measure = "stretch";
   fe.signature = Signature(x, sb, sa);
   std::vector<DiagnosedInterval> kept;

@@ -139,9 +139,10 @@ struct FoundEffect {
   // The held-out measure that judges the effect: "drift" for effects whose error keeps its
   // sign and adds up along the way (lateral slip, backlash, steering lag, scan distortion);
   // "stretch" for those whose chained error telescopes to the window's ends (time offset,
-  // longitudinal slip) or cancels over a wheel revolution (eccentricity): from its low to its
-  // high point the effect is as large as a block allows; "per_interval" (the `heldout_rms_*`)
-  // for effects not chained (actuation) or too few held-out stretches.
+  // longitudinal slip): from its low to its high point the effect is as large as a block
+  // allows; "per_interval" (the `heldout_rms_*`) for eccentricity (it cancels over a wheel
+  // revolution, a third of which one interval spans), effects not chained (actuation), and
+  // too few held-out stretches.
   std::string heldout_measure = "per_interval";
   std::vector<TimeSpan> where;
   std::string regime;     // the motion under which it shows, in words
