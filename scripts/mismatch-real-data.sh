@@ -37,7 +37,7 @@ def by_measure(e):
     if m == "stretch":
         d = e["heldout_stretch"]
         return f"{e['name']} {d['rms_before']:.3g} → {d['rms_after']:.3g} {d['component']} over {d['stretches']} stretches"
-    return f"{e['name']} per interval (as before)"
+    return f"{e['name']}: per interval (the column before)"
 measure = "; ".join(by_measure(e) for e in r["effects"]) or "-"
 ni = ", ".join(c["name"] for c in r["candidates"] if c["status"] == "not_identifiable") or "-"
 un = "; ".join(u["correlates_with"] for u in r["unexplained"]) or "-"
