@@ -652,10 +652,10 @@ OdometryError Diagnoser::HeldoutDrift(const Model& m) const {
 // (a held-out block, cut where an outlier breaks the chain) the stretch over which the effect
 // changes the chained motion most in `comp`, chosen from the two models' predictions alone,
 // never from the measurement. An effect whose error telescopes along a chain (a time offset:
-// offset x the change of speed or turn rate; a longitudinal slip: k (v1^2 - v0^2) / 2) or
-// cancels over a revolution (eccentricity) is small per interval against the scan matcher's
-// noise; from its low to its high point it is as large as the block allows, while the
-// registration error stays that of the stretch's two end scans.
+// offset x the change of speed or turn rate; a longitudinal slip: k (v1^2 - v0^2) / 2) is
+// small per interval against the scan matcher's noise; from its low to its high point it is as
+// large as the block allows, while the registration error stays that of the stretch's two end
+// scans. A wrong effect fares worse here, not better: the stretch is where it predicts most.
 std::vector<HeldoutStretch> Diagnoser::HeldoutStretches(const Candidate& c, const Model& with,
                                                         const Model& without, int comp) const {
   Model zeroed = with;
