@@ -11,9 +11,9 @@
 #include <vector>
 
 #include "agvcal/point_cloud_t.hpp"
-#include "calib/ground.h"
-#include "calib/messages.h"
-#include "calib/simulator.h"
+#include "calib/ground/ground.h"
+#include "calib/io/messages.h"
+#include "calib/sim/simulator.h"
 
 namespace {
 

@@ -19,10 +19,10 @@
 #include <string>
 #include <vector>
 
-#include "calib/errors.h"
-#include "calib/scan_match.h"
-#include "calib/se2.h"
-#include "calib/world.h"
+#include "calib/core/errors.h"
+#include "calib/core/se2.h"
+#include "calib/match/scan_match.h"
+#include "calib/sim/world.h"
 
 namespace {
 

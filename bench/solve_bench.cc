@@ -6,10 +6,10 @@
 #include <cstdio>
 #include <string>
 
-#include "calib/recording.h"
-#include "calib/sim_run.h"
-#include "calib/simulator.h"
-#include "calib/solve_log.h"
+#include "calib/calibrate/solve_log.h"
+#include "calib/io/recording.h"
+#include "calib/live/sim_run.h"
+#include "calib/sim/simulator.h"
 
 int main(int argc, char** argv) {
   using Clock = std::chrono::steady_clock;

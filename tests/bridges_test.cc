@@ -10,12 +10,12 @@
 
 #include "agvcal/laser_scan_t.hpp"
 #include "agvcal/wheel_state_t.hpp"
-#include "calib/canopen.h"
-#include "calib/device_clock.h"
-#include "calib/errors.h"
-#include "calib/messages.h"
-#include "calib/recording.h"
-#include "calib/sick_cola.h"
+#include "calib/core/errors.h"
+#include "calib/devices/canopen.h"
+#include "calib/devices/device_clock.h"
+#include "calib/devices/sick_cola.h"
+#include "calib/io/messages.h"
+#include "calib/io/recording.h"
 
 namespace calib {
 namespace {

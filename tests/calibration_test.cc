@@ -8,12 +8,12 @@
 #include <cstdio>
 #include <string>
 
-#include "calib/calibration.h"
-#include "calib/calibration_data.h"
-#include "calib/errors.h"
-#include "calib/messages.h"
-#include "calib/sim_run.h"
-#include "calib/simulator.h"
+#include "calib/calibrate/calibration.h"
+#include "calib/calibrate/calibration_data.h"
+#include "calib/core/errors.h"
+#include "calib/io/messages.h"
+#include "calib/live/sim_run.h"
+#include "calib/sim/simulator.h"
 
 namespace calib {
 namespace {

@@ -1,7 +1,7 @@
 // Catching up after a restart: the stamp of every agvcal message read without
 // decoding, duplicates dropped, the end of the catch-up decided, and a log
 // still being written read up to its last complete event.
-#include "calib/catch_up.h"
+#include "calib/live/catch_up.h"
 
 #include <gtest/gtest.h>
 
@@ -15,9 +15,9 @@
 #include "agvcal/pose2d_t.hpp"
 #include "agvcal/scan_match_t.hpp"
 #include "agvcal/wheel_state_t.hpp"
-#include "calib/errors.h"
-#include "calib/messages.h"
-#include "calib/recording.h"
+#include "calib/core/errors.h"
+#include "calib/io/messages.h"
+#include "calib/io/recording.h"
 
 namespace calib {
 namespace {

@@ -13,8 +13,8 @@
 
 #include <nlohmann/json.hpp>
 
-#include "calib/calibration.h"
-#include "calib/text_reader.h"
+#include "calib/calibrate/calibration.h"
+#include "calib/io/text_reader.h"
 
 namespace calib {
 namespace {

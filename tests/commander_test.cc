@@ -1,8 +1,8 @@
 // The trajectory commander: every trajectory of every drive type stays within
 // the robot's limits, finishes with stop commands, keeps the robot near its
 // start, and covers the motions that make the parameters observable.
-#include "calib/commander.h"
-#include "calib/commander_safety.h"
+#include "calib/live/commander.h"
+#include "calib/live/commander_safety.h"
 
 #include <gtest/gtest.h>
 
@@ -11,10 +11,10 @@
 #include <string>
 #include <vector>
 
-#include "calib/errors.h"
-#include "calib/kinematics.h"
-#include "calib/robot.h"
-#include "calib/se2.h"
+#include "calib/core/errors.h"
+#include "calib/core/kinematics.h"
+#include "calib/core/robot.h"
+#include "calib/core/se2.h"
 
 namespace calib {
 namespace {

@@ -6,11 +6,11 @@
 #include <string>
 #include <vector>
 
-#include "calib/dashboard_model.h"
-#include "calib/log_summary.h"
-#include "calib/messages.h"
-#include "calib/text_plot.h"
 #include "agvcal/wheel_state_t.hpp"
+#include "calib/io/log_summary.h"
+#include "calib/io/messages.h"
+#include "calib/io/text_plot.h"
+#include "calib/live/dashboard_model.h"
 
 namespace calib {
 namespace {

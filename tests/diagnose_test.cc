@@ -17,12 +17,12 @@
 
 #include <nlohmann/json.hpp>
 
-#include "calib/diagnose.h"
-#include "calib/errors.h"
-#include "calib/messages.h"
-#include "calib/recording.h"
-#include "calib/sim_run.h"
-#include "calib/simulator.h"
+#include "calib/core/errors.h"
+#include "calib/diagnose/diagnose.h"
+#include "calib/io/messages.h"
+#include "calib/io/recording.h"
+#include "calib/live/sim_run.h"
+#include "calib/sim/simulator.h"
 #include "sim_log.h"
 
 namespace calib {

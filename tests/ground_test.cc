@@ -1,9 +1,9 @@
-// The 3D-lidar ground calibration (calib/ground.h, ground_session.h,
+// The 3D-lidar ground calibration (calib/ground/ground.h, ground_session.h,
 // cloud_file.h): simulated clouds with known mounts over 20 seeds (16 and 128
 // rings, 2 cm range noise, obstacles and the robot's body in view), the grid
 // search, a lidar turning on its mount, refusals, KITTI frames, file readers
 // and bad input. Tolerances are stated at each check.
-#include "calib/ground.h"
+#include "calib/ground/ground.h"
 
 #include <gtest/gtest.h>
 
@@ -21,13 +21,13 @@
 
 #include "agvcal/mount_angle_t.hpp"
 #include "agvcal/point_cloud_t.hpp"
-#include "calib/cloud_file.h"
-#include "calib/errors.h"
-#include "calib/ground_session.h"
-#include "calib/messages.h"
-#include "calib/recording.h"
-#include "calib/robot.h"
-#include "calib/simulator.h"
+#include "calib/core/errors.h"
+#include "calib/core/robot.h"
+#include "calib/ground/ground_session.h"
+#include "calib/io/cloud_file.h"
+#include "calib/io/messages.h"
+#include "calib/io/recording.h"
+#include "calib/sim/simulator.h"
 
 namespace calib {
 namespace {

@@ -4,7 +4,7 @@
 // the OptiTrack ground truth; and every kind of bad input as an InputError naming the file
 // and line. Tolerances are stated at each check. Tests on the real data are skipped when
 // the data directory is absent (AGVCAL_DATA_DIR overrides its place).
-#include "calib/importers.h"
+#include "calib/import/importers.h"
 
 #include <gtest/gtest.h>
 #include <zlib.h>
@@ -21,14 +21,14 @@
 #include "agvcal/laser_scan_t.hpp"
 #include "agvcal/pose2d_t.hpp"
 #include "agvcal/wheel_state_t.hpp"
-#include "calib/errors.h"
-#include "calib/kinematics.h"
-#include "calib/messages.h"
-#include "calib/recording.h"
-#include "calib/robot.h"
-#include "calib/se2.h"
-#include "calib/text_reader.h"
-#include "calib/wheel_track.h"
+#include "calib/core/errors.h"
+#include "calib/core/kinematics.h"
+#include "calib/core/robot.h"
+#include "calib/core/se2.h"
+#include "calib/core/wheel_track.h"
+#include "calib/io/messages.h"
+#include "calib/io/recording.h"
+#include "calib/io/text_reader.h"
 
 namespace calib {
 namespace {

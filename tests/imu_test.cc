@@ -14,14 +14,14 @@
 #include "agvcal/imu_t.hpp"
 #include "agvcal/pose2d_t.hpp"
 #include "agvcal/wheel_state_t.hpp"
-#include "calib/errors.h"
-#include "calib/fused_odometry.h"
-#include "calib/imu_calibration.h"
-#include "calib/messages.h"
-#include "calib/recording.h"
-#include "calib/sim_run.h"
-#include "calib/simulator.h"
-#include "calib/solve_log.h"
+#include "calib/calibrate/fused_odometry.h"
+#include "calib/calibrate/imu_calibration.h"
+#include "calib/calibrate/solve_log.h"
+#include "calib/core/errors.h"
+#include "calib/io/messages.h"
+#include "calib/io/recording.h"
+#include "calib/live/sim_run.h"
+#include "calib/sim/simulator.h"
 
 
 namespace calib {

@@ -1,6 +1,6 @@
-// Closed-form checks of the drive models of calib/kinematics.h: straight lines, turns in place,
+// Closed-form checks of the drive models of calib/core/kinematics.h: straight lines, turns in place,
 // arcs against the analytic circle, reversing, Inverse/Forward round trips and arc exactness.
-#include "calib/kinematics.h"
+#include "calib/core/kinematics.h"
 
 #include <cmath>
 #include <stdexcept>

@@ -1,4 +1,4 @@
-// Recalibration during normal operation (calib/recalibration.h): the config, the segment
+// Recalibration during normal operation (calib/calibrate/recalibration.h): the config, the segment
 // recorder, the two tests of the decision against reference values, and the decisions on the
 // forklift's simulated work route (navigation unit as the motion source, so no scan matching
 // here; tests/e2e/recal.sh runs the 2D lidar path live and offline) against the simulator's
@@ -21,13 +21,13 @@
 
 #include <nlohmann/json.hpp>
 
-#include "calib/atomic_file.h"
-#include "calib/errors.h"
-#include "calib/messages.h"
-#include "calib/recalibration.h"
-#include "calib/recording.h"
-#include "calib/sim_run.h"
-#include "calib/simulator.h"
+#include "calib/calibrate/recalibration.h"
+#include "calib/core/errors.h"
+#include "calib/io/atomic_file.h"
+#include "calib/io/messages.h"
+#include "calib/io/recording.h"
+#include "calib/live/sim_run.h"
+#include "calib/sim/simulator.h"
 
 namespace calib {
 namespace {

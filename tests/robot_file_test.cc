@@ -6,8 +6,8 @@
 #include <fstream>
 #include <string>
 
-#include "calib/errors.h"
-#include "calib/robot.h"
+#include "calib/core/errors.h"
+#include "calib/core/robot.h"
 
 namespace calib {
 namespace {

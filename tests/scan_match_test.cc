@@ -4,7 +4,7 @@
 // file's nominal values), covariance consistency, de-skewing, a corridor's
 // degeneracy, dropouts and moving objects, independence of the message
 // interleaving, and bad input. Tolerances are stated at each check.
-#include "calib/scan_match.h"
+#include "calib/match/scan_match.h"
 
 #include <gtest/gtest.h>
 
@@ -23,16 +23,16 @@
 #include "agvcal/pose2d_t.hpp"
 #include "agvcal/scan_match_t.hpp"
 #include "agvcal/wheel_state_t.hpp"
-#include "calib/errors.h"
-#include "calib/laser_scan.h"
-#include "calib/messages.h"
-#include "calib/recording.h"
-#include "calib/robot.h"
-#include "calib/se2.h"
-#include "calib/sim_run.h"
-#include "calib/simulator.h"
-#include "calib/wheel_track.h"
-#include "calib/world.h"
+#include "calib/core/errors.h"
+#include "calib/core/robot.h"
+#include "calib/core/se2.h"
+#include "calib/core/wheel_track.h"
+#include "calib/io/messages.h"
+#include "calib/io/recording.h"
+#include "calib/live/sim_run.h"
+#include "calib/match/laser_scan.h"
+#include "calib/sim/simulator.h"
+#include "calib/sim/world.h"
 
 namespace calib {
 namespace {

@@ -6,9 +6,9 @@
 #include <cstdio>
 #include <string>
 
-#include "calib/recording.h"
-#include "calib/sim_run.h"
-#include "calib/simulator.h"
+#include "calib/io/recording.h"
+#include "calib/live/sim_run.h"
+#include "calib/sim/simulator.h"
 
 namespace calib::test_support {
 

@@ -3,7 +3,7 @@
 // following, the 2D lidar (geometry, true mount, header, noise, per-beam
 // timing), every effect of spec/effects.md against its definition, the IMU,
 // the 3D lidar, and config errors. Tolerances are stated at each check.
-#include "calib/simulator.h"
+#include "calib/sim/simulator.h"
 
 #include <gtest/gtest.h>
 
@@ -22,12 +22,12 @@
 #include "agvcal/point_cloud_t.hpp"
 #include "agvcal/pose2d_t.hpp"
 #include "agvcal/wheel_state_t.hpp"
-#include "calib/errors.h"
-#include "calib/kinematics.h"
-#include "calib/messages.h"
-#include "calib/recording.h"
-#include "calib/se2.h"
-#include "calib/sim_run.h"
+#include "calib/core/errors.h"
+#include "calib/core/kinematics.h"
+#include "calib/core/se2.h"
+#include "calib/io/messages.h"
+#include "calib/io/recording.h"
+#include "calib/live/sim_run.h"
 
 namespace calib {
 namespace {

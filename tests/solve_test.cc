@@ -10,12 +10,12 @@
 #include <cstdio>
 #include <string>
 
-#include "calib/errors.h"
-#include "calib/recording.h"
-#include "calib/sim_run.h"
-#include "calib/simulator.h"
+#include "calib/calibrate/solve_log.h"
+#include "calib/core/errors.h"
+#include "calib/io/recording.h"
+#include "calib/live/sim_run.h"
+#include "calib/sim/simulator.h"
 #include "sim_log.h"
-#include "calib/solve_log.h"
 
 namespace calib {
 namespace {

@@ -1,4 +1,4 @@
-#include "calib/world.h"
+#include "calib/sim/world.h"
 
 #include <gtest/gtest.h>
 
@@ -7,7 +7,7 @@
 #include <random>
 #include <string>
 
-#include "calib/errors.h"
+#include "calib/core/errors.h"
 
 namespace calib {
 namespace {

@@ -4,7 +4,7 @@
 #include <map>
 #include <string>
 
-#include "calib/errors.h"
+#include "calib/core/errors.h"
 #include "commands.h"
 
 namespace {

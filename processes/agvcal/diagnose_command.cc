@@ -5,9 +5,9 @@
 
 #include <nlohmann/json.hpp>
 
-#include "calib/atomic_file.h"
-#include "calib/diagnose.h"
-#include "calib/errors.h"
+#include "calib/core/errors.h"
+#include "calib/diagnose/diagnose.h"
+#include "calib/io/atomic_file.h"
 #include "commands.h"
 #include "common/process_util.h"
 

@@ -2,9 +2,9 @@
 #include <cstdio>
 #include <sstream>
 
-#include "calib/atomic_file.h"
-#include "calib/errors.h"
-#include "calib/fused_odometry.h"
+#include "calib/calibrate/fused_odometry.h"
+#include "calib/core/errors.h"
+#include "calib/io/atomic_file.h"
 #include "commands.h"
 #include "common/process_util.h"
 

@@ -1,10 +1,10 @@
 #include <iostream>
 
-#include "calib/atomic_file.h"
-#include "calib/errors.h"
-#include "calib/ground.h"
-#include "calib/ground_session.h"
-#include "calib/robot.h"
+#include "calib/core/errors.h"
+#include "calib/core/robot.h"
+#include "calib/ground/ground.h"
+#include "calib/ground/ground_session.h"
+#include "calib/io/atomic_file.h"
 #include "commands.h"
 #include "common/process_util.h"
 

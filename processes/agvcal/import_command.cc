@@ -1,9 +1,9 @@
 #include <iostream>
 #include <optional>
 
-#include "calib/errors.h"
-#include "calib/importers.h"
-#include "calib/robot.h"
+#include "calib/core/errors.h"
+#include "calib/core/robot.h"
+#include "calib/import/importers.h"
 #include "commands.h"
 #include "common/process_util.h"
 

@@ -3,8 +3,8 @@
 
 #include <nlohmann/json.hpp>
 
-#include "calib/errors.h"
-#include "calib/log_summary.h"
+#include "calib/core/errors.h"
+#include "calib/io/log_summary.h"
 #include "commands.h"
 #include "common/process_util.h"
 

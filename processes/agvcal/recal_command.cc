@@ -1,8 +1,8 @@
 #include <cstdio>
 #include <iostream>
 
-#include "calib/errors.h"
-#include "calib/recalibration.h"
+#include "calib/calibrate/recalibration.h"
+#include "calib/core/errors.h"
 #include "commands.h"
 #include "common/process_util.h"
 

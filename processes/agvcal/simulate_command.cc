@@ -1,7 +1,7 @@
 #include <iostream>
 
-#include "calib/errors.h"
-#include "calib/sim_run.h"
+#include "calib/core/errors.h"
+#include "calib/live/sim_run.h"
 #include "commands.h"
 #include "common/process_util.h"
 

@@ -2,9 +2,9 @@
 #include <cstdio>
 #include <iostream>
 
-#include "calib/errors.h"
-#include "calib/result_files.h"
-#include "calib/solve_log.h"
+#include "calib/calibrate/result_files.h"
+#include "calib/calibrate/solve_log.h"
+#include "calib/core/errors.h"
 #include "commands.h"
 #include "common/process_util.h"
 

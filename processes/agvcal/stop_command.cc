@@ -4,8 +4,8 @@
 #include <iostream>
 
 #include "agvcal/operator_stop_t.hpp"
-#include "calib/errors.h"
-#include "calib/messages.h"
+#include "calib/core/errors.h"
+#include "calib/io/messages.h"
 #include "commands.h"
 #include "common/process_util.h"
 

@@ -16,9 +16,9 @@
 #include <iostream>
 #include <thread>
 
-#include "calib/canopen.h"
-#include "calib/errors.h"
-#include "calib/robot.h"
+#include "calib/core/errors.h"
+#include "calib/core/robot.h"
+#include "calib/devices/canopen.h"
 #include "common/process_util.h"
 
 namespace {
@@ -28,7 +28,7 @@ const char* kUsage = R"(usage: agvcal-canbridge CONFIG.yaml --can IFACE [--robot
 
 Encoder bridge for CANopen drives and steering encoders: decodes the
 synchronous TPDOs of the nodes in CONFIG.yaml (config/bridges/*_can.yaml,
-format in libcalib/include/calib/canopen.h) and publishes wheel_state_t on
+format in libcalib/include/calib/devices/canopen.h) and publishes wheel_state_t on
 WHEELS (or the config's channel), stamped with the SYNC producer's clock.
   --can IFACE     read a SocketCAN interface live (e.g. can0), until Ctrl-C
   --candump FILE  replay a 'candump -l' log with its recorded stamps, then exit

@@ -2,7 +2,7 @@
 // LCM bus. Its clock is the newest WHEELS time (robot clock); it publishes
 // DRIVE_CMD at a fixed rate of robot time, COMMANDER_STATUS with each command
 // and a HEARTBEAT each wall-clock second. It holds the robot still (stop
-// commands, calib/commander_safety.h) while WHEELS, the lidar's scans or its own
+// commands, calib/live/commander_safety.h) while WHEELS, the lidar's scans or its own
 // HEARTBEAT are stale (wall clock) and while the operator's STOP is engaged,
 // and stops it on SIGINT/SIGTERM and at the end; if it crashes, the timeout of
 // its last command stops the robot.
@@ -22,11 +22,11 @@
 #include "agvcal/heartbeat_t.hpp"
 #include "agvcal/operator_stop_t.hpp"
 #include "agvcal/wheel_state_t.hpp"
-#include "calib/commander.h"
-#include "calib/commander_safety.h"
-#include "calib/errors.h"
-#include "calib/messages.h"
-#include "calib/robot.h"
+#include "calib/core/errors.h"
+#include "calib/core/robot.h"
+#include "calib/io/messages.h"
+#include "calib/live/commander.h"
+#include "calib/live/commander_safety.h"
 #include "common/process_util.h"
 
 namespace {

@@ -9,8 +9,8 @@
 #include <unistd.h>
 
 #include "agvcal/heartbeat_t.hpp"
-#include "calib/errors.h"
-#include "calib/messages.h"
+#include "calib/core/errors.h"
+#include "calib/io/messages.h"
 
 namespace agvcal_process {
 

@@ -15,10 +15,10 @@
 #include <utility>
 #include <vector>
 
-#include "calib/catch_up.h"
-#include "calib/calibration.h"
-#include "calib/recording.h"
-#include "calib/robot.h"
+#include "calib/calibrate/calibration.h"
+#include "calib/core/robot.h"
+#include "calib/io/recording.h"
+#include "calib/live/catch_up.h"
 
 namespace agvcal_process {
 
@@ -94,7 +94,7 @@ class Heartbeat {
 };
 
 // Raw subscription to `channels` that delivers each message once, in stamp
-// order per channel (calib/catch_up.h); with CatchUp(), first what the group's
+// order per channel (calib/live/catch_up.h); with CatchUp(), first what the group's
 // recording holds of what was published before this process subscribed, so a
 // process restarted mid-run ends with the inputs of an undisturbed one.
 class CatchUpInput {

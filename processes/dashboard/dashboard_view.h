@@ -5,8 +5,8 @@
 
 #include <cstdint>
 
-#include "calib/dashboard_model.h"
-#include "calib/text_plot.h"
+#include "calib/io/text_plot.h"
+#include "calib/live/dashboard_model.h"
 
 namespace agvcal_dashboard {
 

@@ -1,4 +1,4 @@
-// agvcal-fusion: wheel odometry fused with the gyro (calib/fused_odometry.h) as a
+// agvcal-fusion: wheel odometry fused with the gyro (calib/calibrate/fused_odometry.h) as a
 // live process: WHEELS + the robot file's IMU channel in, pose2d_t on ODOM_FUSED
 // out, one per wheel state. `agvcal fuse` runs the same code on a recording.
 #include <lcm/lcm-cpp.hpp>
@@ -8,10 +8,10 @@
 
 #include "agvcal/imu_t.hpp"
 #include "agvcal/wheel_state_t.hpp"
-#include "calib/errors.h"
-#include "calib/fused_odometry.h"
-#include "calib/messages.h"
-#include "calib/robot.h"
+#include "calib/calibrate/fused_odometry.h"
+#include "calib/core/errors.h"
+#include "calib/core/robot.h"
+#include "calib/io/messages.h"
 #include "common/process_util.h"
 
 namespace {

@@ -8,12 +8,12 @@
 #include <string>
 
 #include "agvcal/ground_estimate_t.hpp"
-#include "calib/atomic_file.h"
-#include "calib/errors.h"
-#include "calib/ground.h"
-#include "calib/ground_session.h"
-#include "calib/messages.h"
-#include "calib/robot.h"
+#include "calib/core/errors.h"
+#include "calib/core/robot.h"
+#include "calib/ground/ground.h"
+#include "calib/ground/ground_session.h"
+#include "calib/io/atomic_file.h"
+#include "calib/io/messages.h"
 #include "common/process_util.h"
 
 namespace {

@@ -12,8 +12,8 @@
 #include <iostream>
 #include <thread>
 
-#include "calib/errors.h"
-#include "calib/sick_cola.h"
+#include "calib/core/errors.h"
+#include "calib/devices/sick_cola.h"
 #include "common/process_util.h"
 #include "common/tcp_util.h"
 

@@ -14,10 +14,10 @@
 #include "agvcal/pose2d_t.hpp"
 #include "agvcal/scan_match_t.hpp"
 #include "agvcal/wheel_state_t.hpp"
-#include "calib/errors.h"
-#include "calib/messages.h"
-#include "calib/recalibration.h"
-#include "calib/wheel_track.h"
+#include "calib/calibrate/recalibration.h"
+#include "calib/core/errors.h"
+#include "calib/core/wheel_track.h"
+#include "calib/io/messages.h"
 #include "common/process_util.h"
 
 namespace {

@@ -10,12 +10,12 @@
 #include "agvcal/laser_scan_t.hpp"
 #include "agvcal/scan_match_t.hpp"
 #include "agvcal/wheel_state_t.hpp"
-#include "calib/errors.h"
-#include "calib/laser_scan.h"
-#include "calib/messages.h"
-#include "calib/robot.h"
-#include "calib/scan_match.h"
-#include "calib/wheel_track.h"
+#include "calib/core/errors.h"
+#include "calib/core/robot.h"
+#include "calib/core/wheel_track.h"
+#include "calib/io/messages.h"
+#include "calib/match/laser_scan.h"
+#include "calib/match/scan_match.h"
 #include "common/process_util.h"
 
 namespace {

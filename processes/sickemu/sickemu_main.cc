@@ -14,10 +14,10 @@
 #include <thread>
 
 #include "agvcal/laser_scan_t.hpp"
-#include "calib/errors.h"
-#include "calib/messages.h"
-#include "calib/recording.h"
-#include "calib/sick_cola.h"
+#include "calib/core/errors.h"
+#include "calib/devices/sick_cola.h"
+#include "calib/io/messages.h"
+#include "calib/io/recording.h"
 #include "common/process_util.h"
 #include "common/tcp_util.h"
 

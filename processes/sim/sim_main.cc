@@ -6,9 +6,9 @@
 #include <iostream>
 
 #include "agvcal/drive_command_t.hpp"
-#include "calib/errors.h"
-#include "calib/messages.h"
-#include "calib/simulator.h"
+#include "calib/core/errors.h"
+#include "calib/io/messages.h"
+#include "calib/sim/simulator.h"
 #include "common/process_util.h"
 
 namespace {

@@ -13,10 +13,11 @@
 #include "agvcal/pose2d_t.hpp"
 #include "agvcal/scan_match_t.hpp"
 #include "agvcal/wheel_state_t.hpp"
-#include "calib/calibration_data.h"
-#include "calib/errors.h"
-#include "calib/messages.h"
-#include "calib/result_files.h"
+#include "calib/calibrate/calibration_data.h"
+#include "calib/calibrate/result_files.h"
+#include "calib/core/errors.h"
+#include "calib/io/messages.h"
+#include "calib/live/estimate_messages.h"
 #include "common/process_util.h"
 
 namespace {

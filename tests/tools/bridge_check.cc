@@ -17,9 +17,9 @@
 
 #include "agvcal/laser_scan_t.hpp"
 #include "agvcal/wheel_state_t.hpp"
-#include "calib/canopen.h"
-#include "calib/messages.h"
-#include "calib/recording.h"
+#include "calib/devices/canopen.h"
+#include "calib/io/messages.h"
+#include "calib/io/recording.h"
 
 namespace {
 

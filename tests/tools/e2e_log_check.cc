@@ -28,14 +28,14 @@
 #include "agvcal/laser_scan_t.hpp"
 #include "agvcal/pose2d_t.hpp"
 #include "agvcal/wheel_state_t.hpp"
-#include "calib/errors.h"
-#include "calib/fused_odometry.h"
-#include "calib/kinematics.h"
-#include "calib/log_summary.h"
-#include "calib/messages.h"
-#include "calib/recording.h"
-#include "calib/scan_match.h"
-#include "calib/wheel_track.h"
+#include "calib/calibrate/fused_odometry.h"
+#include "calib/core/errors.h"
+#include "calib/core/kinematics.h"
+#include "calib/core/wheel_track.h"
+#include "calib/io/log_summary.h"
+#include "calib/io/messages.h"
+#include "calib/io/recording.h"
+#include "calib/match/scan_match.h"
 
 namespace {
 

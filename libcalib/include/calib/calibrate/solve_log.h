@@ -1,0 +1,65 @@
+#pragma once
+// `agvcal solve` on a recording: the same data path as the live processes
+// (scan matcher pipeline, CalibrationData, Calibrate), fed from a log in its
+// order, so a replay through the live group gives the same numbers.
+
+#include <functional>
+#include <optional>
+#include <string>
+
+#include "calib/calibrate/calibration.h"
+#include "calib/calibrate/calibration_data.h"
+#include "calib/calibrate/imu_calibration.h"
+#include "calib/core/robot.h"
+#include "calib/match/laser_scan.h"
+
+namespace calib {
+
+struct SolveLogOptions {
+  CalibrationOptions calibration;
+  ImuCalibrationOptions imu;  // source kImu
+  // Which sensor measures the motion; by default the robot file's 2D lidar when
+  // the log has its scans, else the external pose source, else the IMU (with a
+  // measured distance: imu_calibration.h).
+  std::optional<MotionSource> source;
+  std::function<void(const std::string&)> progress;  // occasional one-line updates
+};
+
+// The motion source a log and a robot file call for. Throws InputError naming
+// the log when a needed channel is missing.
+MotionSource ChooseMotionSource(const RobotDescription& robot, const std::string& log_path,
+                                std::optional<MotionSource> requested);
+
+// Receivers of ReadCalibrationStream; an empty one is skipped.
+struct CalibrationStreamHandlers {
+  std::function<void(const WheelSample&)> wheels;
+  std::function<void(const SensorMotion&)> motion;      // scan matches
+  std::function<void(const agvcal::pose2d_t&)> pose;    // the external pose source's channel
+  std::function<void(const agvcal::imu_t&, const std::string& origin)> imu;  // the robot's IMU channel
+  std::function<void()> event;                          // after every event of the log
+  std::function<void(LaserScan*)> adjust_scan;           // applied to each scan before matching
+  std::function<void(const std::string&)> progress;     // the scan matcher's counts at the end
+};
+
+// Feeds the log's WHEELS, scan matches (when `match_scans`: the robot file's 2D lidar channel
+// through ScanMatchPipeline, as the live scan matcher), POSE and IMU to `handlers`, in log order.
+// Throws InputError naming the log and the event for a message that does not decode.
+void ReadCalibrationStream(const RobotDescription& robot, const std::string& log_path,
+                           bool match_scans, const CalibrationStreamHandlers& handlers);
+
+// Reads WHEELS and the sensor's channel from the log; scans are scan-matched.
+CalibrationData ReadCalibrationData(const RobotDescription& robot, const std::string& log_path,
+                                    MotionSource source,
+                                    const std::function<void(const std::string&)>& progress);
+
+// The same, with each scan passed through `adjust_scan` before it is matched
+// (the diagnosis re-matches with other beam timing; may be empty).
+CalibrationData ReadCalibrationData(const RobotDescription& robot, const std::string& log_path,
+                                    MotionSource source,
+                                    const std::function<void(const std::string&)>& progress,
+                                    const std::function<void(LaserScan*)>& adjust_scan);
+
+CalibrationResult SolveLog(const RobotDescription& robot, const std::string& log_path,
+                           const SolveLogOptions& options);
+
+}  // namespace calib

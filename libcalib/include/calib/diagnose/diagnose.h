@@ -1,0 +1,235 @@
+#pragma once
+// Sim-to-real mismatch (`agvcal diagnose`): where the calibrated model and a
+// recording disagree, which physics of spec/effects.md the model left out,
+// how large it is, and how much better the model fits once it is modelled, on
+// data the fit did not see.
+//
+// Three layers, each a comparison of two things the recording holds:
+//   odometry + sensing: encoders (through the drive model, the mount and the
+//     effect terms) against the sensor's measured motion per interval;
+//   actuation: DRIVE_CMD setpoints against the encoders' speeds and angles.
+// The recording is cut into alternating blocks of `block_s`: even blocks fit,
+// odd blocks are held out. Every candidate effect is fitted jointly with the
+// calibration on the fit blocks and tested with a Wald statistic whose
+// covariance is autocorrelation-robust (Newey-West over neighbouring
+// intervals); Holm's correction over the whole catalogue keeps the chance of
+// any false alarm below `alpha`. Effects that pass must also explain the
+// held-out residual (a score test on the held-out blocks) and are added
+// greedily, each tested given those already chosen. Confusable pairs are fitted together: separated when the data
+// tell them apart, reported as indistinguishable (with the motion that would
+// separate them) when not. A candidate whose minimum detectable size exceeds
+// any plausible size is reported as not identifiable, never as something else.
+// An effect must also lower BIC on the fit blocks: a Wald statistic can overstate
+// the evidence where the model is far from linear or the regressor sparse.
+
+#include <cstdint>
+#include <functional>
+#include <map>
+#include <optional>
+#include <string>
+#include <vector>
+
+#include <Eigen/Core>
+
+#include "calib/calibrate/calibration.h"
+#include "calib/core/drive_command.h"
+#include "calib/core/robot.h"
+#include "calib/core/sensor_motion.h"
+#include "calib/core/wheel_track.h"
+
+namespace calib {
+
+struct DiagnoseOptions {
+  double alpha = 0.01;       // family-wise false-alarm rate over all candidates
+  double block_s = 10.0;     // length of the alternating fit / held-out blocks
+  double drift_window_s = 2.0;  // held-out drift windows (FoundEffect::heldout_drift_*)
+  int hac_lags = 4;          // Newey-West lags (neighbouring intervals share a scan)
+  std::function<void(const std::string&)> progress;
+};
+
+// What a recording holds for the diagnosis.
+struct DiagnoseData {
+  WheelTrack wheels;
+  std::vector<SensorMotion> motions;
+  MotionSource source = MotionSource::kLidar2d;
+  std::vector<DriveCommand> commands;  // DRIVE_CMD, in time order (may be empty)
+  // Scans that declare no beam timing (time_increment 0) are matched a second time as if
+  // their beams spread over `scan_period_s`: the first-order effect of scan_distortion.
+  double scan_period_s = 0.0;  // 0: the scans declare their timing (scan_distortion not testable)
+  std::vector<SensorMotion> motions_spread;
+  // The matcher de-skews each scan with `deskew_robot`'s odometry (no effects), on the wheel
+  // clock `deskew_offset_s` before the stamps. The registration then places the scan where its
+  // beams sit on average, `deskew_lead_s` (the mean beam time) after its stamp, less the
+  // de-skew odometry over that lead: a match carries the truth over the interval shifted by the
+  // lead, so what the de-skew model leaves out (an eccentric wheel's phase) shows shifted by it.
+  // 0: the scans were not de-skewed.
+  double deskew_lead_s = 0.0;
+  double deskew_offset_s = 0.0;
+  std::optional<RobotDescription> deskew_robot;
+};
+
+// Reads WHEELS, the motion sensor (scan-matched SCAN or POSE) and DRIVE_CMD. The scans
+// are de-skewed with the calibrated model, using the wheel data `deskew_offset_s` before
+// their stamps (the motions keep the recorded stamps).
+DiagnoseData ReadDiagnoseData(const RobotDescription& robot, const std::string& log_path,
+                              const std::function<void(const std::string&)>& progress,
+                              double deskew_offset_s = 0.0);
+
+// The motion under which an interval was driven (calibrated model, encoders).
+struct MotionConditions {
+  double speed = 0, accel = 0, turn_rate = 0, centripetal = 0;  // m/s, m/s^2, rad/s, m/s^2
+  double turn_accel = 0;             // rad/s^2
+  double steer = 0, steer_rate = 0;  // rad, rad/s (first steered wheel; 0 without steering)
+  int steer_direction = 0;           // sign of the last steering motion (+1 left, -1 right, 0 none)
+  double route_m = 0;                // distance along the route since the start
+  double x = 0, y = 0;               // odometry position of the reference point, m
+};
+
+struct DiagnosedInterval {
+  int64_t utime_start = 0, utime_end = 0;
+  bool heldout = false, outlier = false;
+  Eigen::Vector3d before = Eigen::Vector3d::Zero();  // residual of the calibrated model (x, y, yaw)
+  Eigen::Vector3d after = Eigen::Vector3d::Zero();   // with the effects found
+  Eigen::Vector3d sigma = Eigen::Vector3d::Ones();   // measurement std per component (scaled)
+  MotionConditions motion;
+};
+
+struct TimeSpan {
+  int64_t utime_start = 0, utime_end = 0;
+};
+
+struct ParamEstimate {
+  double value = 0, std = 0;
+};
+
+// Binned mean residual against the effect's regressor, before and after.
+struct SignatureBin {
+  double x = 0;  // bin centre of the regressor
+  double before = 0, after = 0, std_error = 0;
+  int count = 0;
+};
+
+// The chained error over one held-out stretch, without and with the effect.
+struct HeldoutStretch {
+  int64_t utime_start = 0, utime_end = 0;
+  double before = 0, after = 0;
+};
+
+struct FoundEffect {
+  std::string name, layer, wheel;  // effects.md name; wheel role when it applies to one wheel
+  std::map<std::string, ParamEstimate> params;
+  double wald = 0, p_value = 1, p_adjusted = 1, delta_bic = 0;
+  std::string component;  // residual the effect shows in: x, y, yaw (odometry) or speed, steer
+  // Held-out RMS of `component` where the effect stands out (`where`), and over all held-out data.
+  double heldout_rms_before = 0, heldout_rms_after = 0;
+  double heldout_rms_all_before = 0, heldout_rms_all_after = 0;
+  // Dead-reckoning drift over `drift_window_s` of consecutive held-out motion (the model
+  // chained against the measured motion chained, calibration.h OdometryErrorOverWindows),
+  // RMS of the translation or heading error per window. Per interval the noise is large
+  // against a small effect; chained, the effect adds up and a scan's registration error
+  // cancels. Actuation effects (compared with the encoders, not chained) leave it empty.
+  std::string drift_component;  // translation, heading or "" (not measured)
+  double drift_window_s = 0, heldout_drift_before = 0, heldout_drift_after = 0;
+  int drift_windows = 0;
+  // In `component`, over one stretch of consecutive held-out intervals per held-out block:
+  // the stretch over which the effect changes the chained motion most (chosen from the
+  // models' predictions, not the measurement), RMS over the stretches of the chained error.
+  std::vector<HeldoutStretch> stretches;
+  double heldout_stretch_before = 0, heldout_stretch_after = 0;  // RMS over the stretches
+  // The held-out measure that judges the effect: "drift" for effects whose error keeps its
+  // sign and adds up along the way (lateral slip, backlash, steering lag, scan distortion);
+  // "stretch" for those whose chained error telescopes to the window's ends (time offset,
+  // longitudinal slip): from its low to its high point the effect is as large as a block
+  // allows; "per_interval" (the `heldout_rms_*`) for eccentricity (it cancels over a wheel
+  // revolution, a third of which one interval spans), effects not chained (actuation), and
+  // too few held-out stretches.
+  std::string heldout_measure = "per_interval";
+  std::vector<TimeSpan> where;
+  std::string regime;     // the motion under which it shows, in words
+  std::string regressor;  // what the signature is binned by
+  std::string signature_component;  // the residual component binned
+  std::vector<SignatureBin> signature;
+};
+
+// Every candidate tested, with its outcome.
+struct CandidateOutcome {
+  std::string name, layer, wheel;
+  std::string status;  // found, not_significant, not_identifiable, indistinguishable, rejected
+  ParamEstimate estimate;
+  double p_value = 1, p_adjusted = 1, delta_bic = 0;
+  double detectable = 0;  // minimum detectable size (alpha, power 0.8) with this recording
+  // The same when its confusable look-alike is fitted too (both present): by look-alike.
+  std::map<std::string, double> detectable_with;
+  std::string note;       // e.g. the motion that would excite it
+};
+
+struct Indistinguishable {
+  std::string first, second;
+  double correlation = 0;
+  std::string motion;  // what would separate them
+};
+
+struct Unexplained {
+  std::vector<TimeSpan> where;
+  std::string correlates_with;
+  double p_value = 1;
+  std::string component;
+};
+
+struct DiagnoseReport {
+  DriveType drive = DriveType::kDifferential;
+  MotionSource source = MotionSource::kLidar2d;
+  std::string verdict;  // effects_found | no_significant_effect
+  std::vector<std::string> param_names;
+  std::map<std::string, ParamEstimate> calibration;  // baseline (fit blocks), params + mount.*
+  std::map<std::string, ParamEstimate> refitted;     // jointly with the effects found
+  std::vector<FoundEffect> effects;
+  std::vector<CandidateOutcome> candidates;
+  std::vector<Indistinguishable> indistinguishable;
+  std::vector<Unexplained> unexplained;
+  std::vector<DiagnosedInterval> intervals;
+  double heldout_rms_before[3] = {0, 0, 0}, heldout_rms_after[3] = {0, 0, 0};
+  double heldout_chi2_before = 0, heldout_chi2_after = 0;  // per held-out interval
+  OdometryError heldout_drift_before, heldout_drift_after;  // over drift_window_s windows
+  int fit_intervals = 0, heldout_intervals = 0, outliers = 0;
+  double variance_factor = 1;
+  // Actuation layer time series (for plots): utime, measured, predicted before/after.
+  struct Trace {
+    std::string name;  // "speed <role>" or "steer <role>"
+    std::vector<int64_t> utime;
+    std::vector<double> measured, before, after;
+  };
+  std::vector<Trace> actuation;
+  std::vector<std::string> notes;
+};
+
+// Diagnoses a recording against `robot` (its nominal values are only the
+// starting point: the calibration is refitted). Throws InputError when there
+// is too little to work with.
+DiagnoseReport Diagnose(const RobotDescription& robot, const DiagnoseData& data,
+                        const DiagnoseOptions& options, const std::string& origin);
+
+// ReadDiagnoseData + Diagnose; when a time offset is found, the scans are matched again
+// de-skewed on the wheel clock and the recording diagnosed once more (what `agvcal
+// diagnose` runs).
+DiagnoseReport DiagnoseLog(const RobotDescription& robot, const std::string& log_path,
+                           const DiagnoseOptions& options);
+
+// REPORT.json (spec/cli.md) with the extra keys of DiagnoseReport.
+std::string DiagnoseReportJson(const DiagnoseReport& report);
+
+// Plain-words summary: what physics was missing, how large, how much better.
+std::string DiagnoseSummaryText(const DiagnoseReport& report);
+
+// The human report: summary.txt and SVG plots in `dir` (created if needed).
+void WriteDiagnoseReportDir(const DiagnoseReport& report, const std::string& dir);
+
+// `real` compared with a simulator's recording of the same commands (`sim`):
+// the effects and parameters on which they differ, in JSON.
+std::string CompareWithSimJson(const DiagnoseReport& real, const DiagnoseReport& sim);
+
+// A simulation config that reproduces the real robot: the refitted calibration
+// as truth and the effects found, for `robot_path` (written as given).
+std::string SimConfigYaml(const DiagnoseReport& report, const std::string& robot_path);
+
+}  // namespace calib

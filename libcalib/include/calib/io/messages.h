@@ -1,0 +1,73 @@
+#pragma once
+// Conversions between the messages of spec/messages.md (generated from
+// lcmtypes/) and libcalib's plain data, and encoding helpers. No bus here.
+
+#include <cstdint>
+#include <exception>
+#include <string>
+#include <vector>
+
+#include "agvcal/drive_command_t.hpp"
+#include "agvcal/scan_match_t.hpp"
+#include "calib/core/drive_command.h"
+#include "calib/core/robot.h"
+#include "calib/core/sensor_motion.h"
+
+namespace calib {
+
+// Channel names of spec/messages.md and the internal ones.
+inline constexpr const char* kWheelsChannel = "WHEELS";
+inline constexpr const char* kScanChannel = "SCAN";
+inline constexpr const char* kCloudChannel = "CLOUD";
+inline constexpr const char* kImuChannel = "IMU";
+inline constexpr const char* kDriveCmdChannel = "DRIVE_CMD";
+inline constexpr const char* kPoseChannel = "POSE";
+inline constexpr const char* kGroundTruthChannel = "GROUND_TRUTH";
+inline constexpr const char* kHeartbeatChannel = "HEARTBEAT";
+inline constexpr const char* kCommanderStatusChannel = "COMMANDER_STATUS";
+inline constexpr const char* kCalibEstimateChannel = "CALIB_ESTIMATE";
+inline constexpr const char* kCalibResidualsChannel = "CALIB_RESIDUALS";
+inline constexpr const char* kScanMatchChannel = "SCAN_MATCH";
+inline constexpr const char* kGroundEstimateChannel = "GROUND_ESTIMATE";
+// Wheel odometry fused with the gyro (agvcal-fusion), pose2d_t.
+inline constexpr const char* kOdomFusedChannel = "ODOM_FUSED";
+// Default channel of a turret-mounted 3D lidar's angle (robot file lidar3d.rotation.channel).
+inline constexpr const char* kMountAngleChannel = "LIDAR3D_ANGLE";
+// The operator's stop (agvcal::operator_stop_t): the commander holds the robot until released.
+inline constexpr const char* kStopChannel = "STOP";
+
+// A command for the robot's wheels, named as in the robot file.
+agvcal::drive_command_t ToMessage(const DriveCommand& command, const RobotDescription& robot,
+                                  int64_t seq);
+
+// The command in WheelRoles() order; throws InputError if a wheel of the
+// robot is missing from a mode-1 command (`origin` names the source).
+DriveCommand FromMessage(const agvcal::drive_command_t& message, const RobotDescription& robot,
+                         const std::string& origin);
+
+// A scan-matcher result (channel SCAN_MATCH) and back. FromMessage throws
+// InputError (`origin` names the source) for a non-finite number or
+// utime_end <= utime_start.
+agvcal::scan_match_t ToMessage(const SensorMotion& motion);
+SensorMotion FromMessage(const agvcal::scan_match_t& message, const std::string& origin);
+
+// Encodes any lcm-gen message into bytes.
+template <typename Message>
+std::vector<uint8_t> Encode(const Message& message) {
+  std::vector<uint8_t> bytes(message.getEncodedSize());
+  message.encode(bytes.data(), 0, static_cast<int>(bytes.size()));
+  return bytes;
+}
+
+// Decodes bytes into a message; false if they are not a valid `Message`
+// (lcm-gen's decoders can throw on corrupt lengths, e.g. of a string).
+template <typename Message>
+bool Decode(const void* data, int size, Message* message) {
+  try {
+    return message->decode(data, 0, size) == size;
+  } catch (const std::exception&) {
+    return false;
+  }
+}
+
+}  // namespace calib

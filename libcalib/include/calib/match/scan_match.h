@@ -1,0 +1,279 @@
+#pragma once
+// 2D scan matching: the motion of the lidar between consecutive scans, the
+// measurement the calibration compares with the wheel odometry's prediction.
+//
+// 1. De-skew. A scanner takes its beams one after another while the robot
+//    moves (a 20 Hz scan at 0.6 m/s spans 3 cm). Each beam's point is carried
+//    into the sensor frame at the scan's first beam (`utime`) with the sensor
+//    motion predicted by the wheel odometry (nominal drive model and lidar
+//    mount of the robot file):
+//      S(t) = Inverse(mount) ∘ Odometry(t0, t) ∘ mount,
+//    integrated once per scan, one encoder interval after another, with a
+//    constant twist inside each interval, from the encoder readings as they
+//    are (interpolated at the scan's utime). A reading's quantisation error at
+//    utime (a 4096-tick encoder on a 0.45 m track: heading to 0.25 mrad)
+//    turns the whole de-skewed scan by that error, so the match carries the
+//    encoder error at both stamps: exactly the error of the odometry it is
+//    compared with, and the two cancel in the calibration's residual.
+//    Smoothing the readings (deskew_smoothing_s > 0: least-squares quadratic
+//    over the scan and that margin either side) gives a match closer to the
+//    true motion but breaks that cancellation, and where the acceleration
+//    changes within the window the quadratic misfits in step with the
+//    acceleration: the calibration then saw a time offset of -0.18 ms
+//    (dual steer, 2 sigma) and -2.7 ms (solve, differential) that was not there.
+// 2. PL-ICP (after Censi 2008, "An ICP variant using a point-to-line metric").
+//    Every point q of the current scan, moved by the guess T, is paired with
+//    its nearest reference point (exact search by polar angle, exploiting
+//    beam order: O(n log n) per scan instead of O(n^2)); the error is its
+//    distance to the reference's line there, e = n · (T q − c). One deviation
+//    from Censi: the line is not the one through the two nearest points but
+//    a line fitted to the consecutive beams around the nearest point (within
+//    the larger of line_fit_radius_m and line_fit_beams beam spacings). With
+//    1 cm range noise and beams 1 cm apart, a line through two points has a
+//    random orientation, which biases the match and hides a corridor's
+//    degeneracy; a fit over 5-25 beams does not. Points whose neighbourhood
+//    is not a line (corners, clutter) are not used as reference. Each
+//    iteration drops pairs farther apart than max_correspondence_distance_m,
+//    with |e| beyond residual_gate_sigmas robust (MAD) sigmas, and the
+//    trim_fraction with the largest |e| (outliers, moving objects), then
+//    takes one Gauss-Newton step on (x, y, theta) from the odometry's
+//    prediction of the motion. The iteration ends when a step is below
+//    convergence_m / convergence_rad or revisits an earlier state (a pair
+//    flipping in and out of the kept set).
+// 3. Symmetric (MatchScans): the match is done both ways, current points to
+//    reference lines and reference points to current lines, and averaged. A
+//    fitted line is not quite the surface at corners and on curved faces,
+//    which biases a one-way match by a few tenths of the noise (0.2-0.3 mm
+//    per pair in the bundled warehouse, which would add up over a
+//    calibration run); the two ways err in opposite directions.
+// 4. Covariance (the Hessian estimate with both scans' noise):
+//      cov = 2 σ² (JᵀJ)⁻¹,
+//    J the point-to-line Jacobians of the kept pairs, σ² the range noise along
+//    the normals estimated from the residuals (corrected for the truncation
+//    of the gates, and for the reference line's own noise). The factor 2: the
+//    reference scan is as noisy as the current one and enters the estimate as
+//    much (its lines are averages, but neighbouring pairs share them). The
+//    symmetric match reports the mean of its two ways' covariances. Not
+//    Censi's closed form. Checked against the simulator: E[eᵀ cov⁻¹ e] is
+//    2.5-3.6 (3 if exact).
+// 5. Degeneracy. JᵀJ is scaled so that translation and rotation compare
+//    (theta times L, the RMS range of the matched points) and its
+//    eigenvalues compared: smallest / largest < degeneracy_ratio marks the
+//    match degenerate (the warehouse gives 0.2-0.3, the corridor < 0.001);
+//    weak_direction is the least constrained (x, y, theta) direction (set for
+//    every match). Along a degenerate direction (every one below the ratio)
+//    the result keeps the odometry prior and the covariance is
+//    degenerate_sigma_m² (uninformative); across it the match is used. A
+//    corridor's weak direction is its axis.
+//
+// All functions are deterministic; no state outside their arguments.
+
+#include <cstdint>
+#include <deque>
+#include <memory>
+#include <optional>
+#include <utility>
+#include <vector>
+
+#include <Eigen/Core>
+
+#include "calib/core/kinematics.h"
+#include "calib/core/robot.h"
+#include "calib/core/se2.h"
+#include "calib/core/sensor_motion.h"
+#include "calib/core/wheel_track.h"
+#include "calib/match/laser_scan.h"
+
+namespace calib {
+
+struct ScanMatchOptions {
+  // Correspondences.
+  double max_correspondence_distance_m = 0.3;  // point to its nearest reference point
+  double residual_gate_sigmas = 3.0;  // pairs with |e| beyond this many robust sigmas dropped
+  double trim_fraction = 0.1;         // share of pairs with the largest |e| dropped, each iteration
+  // Reference lines: consecutive beams within the larger of line_fit_radius_m and
+  // line_fit_beams beam spacings (at the point's range) fit a point's line.
+  double line_fit_radius_m = 0.15;
+  double line_fit_beams = 5.0;
+  int line_fit_min_points = 5;
+  double line_max_flatness = 0.05;  // smallest / largest eigenvalue of the fit's scatter
+  // Iterations.
+  int max_iterations = 40;
+  double convergence_m = 1e-5;    // stop when a step moves less than this...
+  double convergence_rad = 1e-6;  // ...and turns less than this
+  // Acceptance: fewer kept pairs, or a smaller share of the current scan's points, is a
+  // failed match (valid = false).
+  int min_correspondences = 40;
+  double min_inlier_fraction = 0.2;
+  // Degeneracy.
+  double degeneracy_ratio = 0.02;   // smallest / largest eigenvalue of the scaled JᵀJ
+  double degenerate_sigma_m = 1.0;  // std reported along a weak direction (scaled units)
+  // Match both ways and average (see MatchScans).
+  bool symmetric = true;
+  // Pipeline.
+  bool deskew = true;                // false: every beam taken at the scan's utime
+  double deskew_smoothing_s = 0.0;   // > 0: readings smoothed over the scan and this margin (see 1.)
+  // An encoder gap within a pair longer than both of these makes the match invalid:
+  double max_wheel_gap_s = 0.25;     // s
+  double wheel_gap_factor = 2.5;     // times the median of the last 15 encoder intervals
+  // A scan is matched to the previous matched scan (keyframe) once the odometry says
+  // the sensor moved this far, turned this much, or this much time passed.
+  double keyframe_translation_m = 0.2;
+  double keyframe_rotation_rad = 0.1;
+  double keyframe_max_interval_s = 1.0;
+  int max_pending_scans = 200;       // scans waiting for wheel data; beyond, the oldest is dropped
+};
+
+// Points of one scan in the sensor frame at the scan's utime (first beam), in
+// beam order, only beams with a return.
+struct ScanPoints {
+  int64_t utime = 0;
+  std::vector<Eigen::Vector2d> points;  // m
+  double angle_increment = 0.0;         // rad, of the scan (line-fit radius)
+  bool full_circle = false;             // the first and last beams are neighbours
+};
+
+// Every beam as if taken at scan.utime (no motion correction).
+ScanPoints ScanToPoints(const LaserScan& scan);
+
+// Each beam's point carried to the sensor frame at scan.utime with the sensor
+// motion the wheel odometry predicts (see the top of this file). `mount` is the
+// lidar's pose in the robot frame. smoothing_s > 0: the encoder readings are
+// smoothed over the scan and that margin either side (as far as the track
+// reaches). Throws std::invalid_argument when the track does not cover the
+// scan's beams (scan.utime .. BeamTime(last)).
+ScanPoints DeskewScan(const LaserScan& scan, const WheelTrack& track, const DriveModel& model,
+                      const Pose2& mount, double smoothing_s = 0.0);
+
+// Motion of the sensor mounted at `mount` over [t0, t1] (us) predicted by the
+// odometry: Inverse(mount) ∘ track.Odometry(model, t0, t1) ∘ mount, in the
+// sensor frame at t0.
+Pose2 PredictSensorMotion(const WheelTrack& track, const DriveModel& model, const Pose2& mount,
+                          double t0, double t1);
+
+// A scan prepared for matching: its points, a line fitted around each point
+// and an index of those points by polar angle. Built once per scan (each scan
+// is the later scan of one pair and the earlier of the next).
+class PreparedScan {
+ public:
+  PreparedScan(ScanPoints points, const ScanMatchOptions& options);
+
+  int64_t utime() const { return points_.utime; }
+  const ScanPoints& points() const { return points_; }
+  int num_lines() const { return static_cast<int>(lines_.size()); }
+
+  struct Line {
+    Eigen::Vector2d point;      // the scan point, m
+    Eigen::Vector2d centroid;   // of the fitted neighbourhood, m
+    Eigen::Vector2d normal;     // unit normal of the fitted line
+    Eigen::Vector2d direction;  // unit vector from the sensor towards `point`
+    double angle = 0.0;         // polar angle of `point`, rad in [-pi, pi)
+    int support = 0;            // points in the fit
+  };
+  const Line& line(int i) const { return lines_[i]; }
+
+  // Index of the line whose point is nearest to p (this scan's frame) and
+  // closer than max_distance, or -1. Exact nearest neighbour.
+  int Nearest(const Eigen::Vector2d& p, double max_distance) const;
+
+ private:
+  ScanPoints points_;
+  std::vector<Line> lines_;     // sorted by angle
+  std::vector<int> bin_start_;  // first line at or after each angle bin
+};
+
+// How a match went, for tests and tuning.
+struct ScanMatchReport {
+  int iterations = 0;                 // Gauss-Newton iterations (both directions)
+  bool converged = false;             // every direction run converged
+  int correspondences = 0;            // kept pairs of the last iteration (first direction)
+  double eigenvalue_ratio = 0.0;      // smallest / largest of the scaled JᵀJ (first direction)
+  double characteristic_range = 0.0;  // L, m
+  double sigma = 0.0;                 // estimated range noise along the normals, m
+};
+
+// One-way PL-ICP: the points of `current` against the lines of `reference`,
+// starting from `prior` (the guess of the current scan's sensor pose in the
+// reference scan's sensor frame). Returns the motion from reference.utime()
+// to current.utime; valid = false when too few pairs were found, too small a
+// share of the points matched, or the iteration did not converge.
+SensorMotion MatchPointsToLines(const PreparedScan& reference, const ScanPoints& current,
+                                const Pose2& prior, const ScanMatchOptions& options,
+                                ScanMatchReport* report = nullptr);
+
+// The match of two prepared scans. With options.symmetric (the default) it
+// matches both ways, current's points to reference's lines and reference's
+// points to current's lines, and averages the first with the inverse of the
+// second (covariance: the mean of the two): a fitted line is not quite the
+// surface (at corners, on curved faces), which biases a one-way match by a
+// few tenths of the noise; the two ways err in opposite directions. If only
+// one way succeeds, its result is returned alone.
+SensorMotion MatchScans(const PreparedScan& reference, const PreparedScan& current,
+                        const Pose2& prior, const ScanMatchOptions& options,
+                        ScanMatchReport* report = nullptr);
+
+// What the pipeline has seen and done.
+struct ScanMatchCounts {
+  int64_t wheels = 0;          // wheel samples accepted
+  int64_t wheels_dropped = 0;  // stamp at or before the previous sample's (out of order, duplicate)
+  int64_t scans = 0;           // scans accepted
+  int64_t scans_dropped = 0;   // stamp at or before the previous scan's
+  int64_t scans_uncovered = 0;  // never covered by wheel data (before the first sample,
+                                // beyond the last at Finish, or too many waiting)
+  int64_t matches = 0;          // results produced
+  int64_t invalid = 0;          // of which valid = false
+  int64_t degenerate = 0;       // of which degenerate
+  int64_t wheel_gaps = 0;       // of the invalid: an encoder gap too long (max_wheel_gap_s)
+  int64_t between_keyframes = 0;  // scans skipped: too little motion since the last keyframe
+};
+
+// The incremental front end shared by the live process and the offline
+// solver: wheel samples and scans in, one SensorMotion per pair of
+// consecutive scans out, in stamp order. Scan k is matched to scan k+1 once
+// the wheel data cover both scans entirely (and the de-skewing's smoothing
+// margin after them), so the results depend only on the order of the wheel
+// samples among themselves and of the scans among themselves, not on how the
+// two streams interleave (provided the wheels lag the scans by fewer than
+// max_pending_scans scans). Out-of-order and duplicated stamps are dropped
+// and counted. A scan that begins before the first wheel sample is never
+// covered (dropped, counted). Memory stays bounded: wheel samples older than
+// the reference scan (less the smoothing margin) are released.
+class ScanMatchPipeline {
+ public:
+  // Uses the robot file's nominal drive model and lidar2d mount. Throws
+  // InputError (the robot file) if it has no lidar2d.
+  explicit ScanMatchPipeline(const RobotDescription& robot, ScanMatchOptions options = {});
+  ~ScanMatchPipeline();
+
+  // Throws std::invalid_argument for a sample with the wrong number of wheels.
+  void AddWheels(const WheelSample& sample);
+  void AddScan(const LaserScan& scan);
+  // End of data: scans whose beams the wheel data cover are matched (their
+  // smoothing margin cut to the data there is), the rest dropped (counted).
+  void Finish();
+  // The results completed since the last call, in stamp order.
+  std::vector<SensorMotion> TakeResults();
+
+  const ScanMatchCounts& counts() const { return counts_; }
+  const ScanMatchOptions& options() const { return options_; }
+
+ private:
+  void Process(bool finishing = false);
+  void ReleaseOldWheels();
+
+  ScanMatchOptions options_;
+  std::unique_ptr<DriveModel> model_;
+  Pose2 mount_;
+  std::size_t num_wheels_ = 0;
+  WheelTrack track_;
+  std::deque<int64_t> recent_intervals_;                       // last encoder intervals, us
+  std::deque<std::pair<int64_t, int64_t>> typical_interval_;  // per track sample: utime, median interval
+  std::deque<LaserScan> pending_;
+  std::optional<PreparedScan> reference_;
+  bool have_scan_ = false;
+  int64_t last_scan_utime_ = 0;
+  std::vector<SensorMotion> results_;
+  ScanMatchCounts counts_;
+};
+
+}  // namespace calib

@@ -1,0 +1,892 @@
+#include "calib/calibrate/calibration.h"
+
+#include <algorithm>
+#include <cmath>
+#include <memory>
+#include <sstream>
+
+#include <Eigen/Dense>
+#include <ceres/ceres.h>
+#include <unsupported/Eigen/SpecialFunctions>
+
+#include "calib/calibrate/closed_form.h"
+#include "calib/core/errors.h"
+#include "calib/core/kinematics_generic.h"
+
+namespace calib {
+namespace {
+
+constexpr int kMaxParams = 5;
+// Median of a chi-square variable with 3 degrees of freedom: robust scale of the residuals.
+constexpr double kChi2Median3 = 2.366;
+
+double Scalar(double x) { return x; }
+template <typename T, int N>
+double Scalar(const ceres::Jet<T, N>& x) {
+  return x.a;
+}
+
+// One interval's residual: measured sensor motion minus the one predicted from the encoders,
+// the drive parameters, the mount and the time offset, whitened by the measurement's
+// covariance. The encoder samples are those around the interval, times relative to its start.
+class IntervalCost {
+ public:
+  IntervalCost(DriveType type, int num_wheels, std::vector<double> times,
+               std::vector<WheelSample> samples, double duration, const Pose2& measured,
+               const Eigen::Matrix3d& sqrt_information)
+      : type_(type), num_wheels_(num_wheels), times_(std::move(times)),
+        samples_(std::move(samples)), duration_(duration),
+        measured_(measured.x, measured.y, measured.theta), sqrt_information_(sqrt_information) {}
+
+  template <typename T>
+  bool operator()(const T* params, const T* mount, const T* offset, T* residual) const {
+    T e[3];
+    Error(params, mount, offset, e);
+    for (int i = 0; i < 3; ++i) {
+      residual[i] = T(0.0);
+      for (int j = 0; j < 3; ++j) residual[i] += sqrt_information_(i, j) * e[j];
+    }
+    return true;
+  }
+
+  // Measured minus predicted (x, y, theta), unwhitened.
+  template <typename T>
+  void Error(const T* params, const T* mount, const T* offset, T* e) const {
+    using P = generic::Pose<T>;
+    P q{T(0.0), T(0.0), T(0.0)};
+    // The scan stamped t was taken at wheel time t - offset (spec/effects.md time_offset).
+    ForEachStep(-offset[0], T(duration_) - offset[0], [&](const T* rotation, const T* steer) {
+      T dx = T(0.0), dy = T(0.0), dtheta = T(0.0);
+      generic::BodyDisplacement(type_, params, rotation, steer, &dx, &dy, &dtheta);
+      q = generic::Compose(q, generic::Exp(dx, dy, dtheta));
+    });
+    const P l{mount[0], mount[1], mount[2]};
+    const P z = generic::Compose(generic::Compose(generic::Inverse(l), q), l);
+    e[0] = T(measured_[0]) - z.x;
+    e[1] = T(measured_[1]) - z.y;
+    const double turns = std::round((measured_[2] - Scalar(z.theta)) / (2.0 * M_PI));
+    e[2] = T(measured_[2]) - z.theta - T(turns * 2.0 * M_PI);
+  }
+
+ private:
+  // Calls step(rotation, mean_steer) for each encoder step over [start, end] (s, relative to
+  // the interval's start), the first and last cut by interpolation.
+  template <typename T, typename Step>
+  void ForEachStep(const T& start, const T& end, Step step) const {
+    std::size_t i = Segment(Scalar(start));
+    const std::size_t last = Segment(Scalar(end));
+    T prev_pos[2], prev_steer[2], pos[2], steer[2];
+    Interpolate(i, start, prev_pos, prev_steer);
+    for (;;) {
+      const bool final_step = i >= last;
+      if (final_step) {
+        Interpolate(last, end, pos, steer);
+      } else {
+        ++i;
+        for (int w = 0; w < num_wheels_; ++w) {
+          pos[w] = T(samples_[i].position[w]);
+          steer[w] = T(samples_[i].steer[w]);
+        }
+      }
+      T rotation[2], mean_steer[2];
+      for (int w = 0; w < num_wheels_; ++w) {
+        rotation[w] = pos[w] - prev_pos[w];
+        mean_steer[w] = 0.5 * (steer[w] + prev_steer[w]);
+        prev_pos[w] = pos[w];
+        prev_steer[w] = steer[w];
+      }
+      step(rotation, mean_steer);
+      if (final_step) break;
+    }
+  }
+
+  // Index i of the sample interval [times_[i], times_[i+1]] that holds t (clamped).
+  std::size_t Segment(double t) const {
+    const auto it = std::upper_bound(times_.begin(), times_.end(), t);
+    const std::size_t i = it == times_.begin() ? 0 : std::size_t(it - times_.begin()) - 1;
+    return std::min(i, times_.size() - 2);
+  }
+
+  template <typename T>
+  void Interpolate(std::size_t i, const T& t, T* pos, T* steer) const {
+    const T s = (t - times_[i]) / (times_[i + 1] - times_[i]);
+    for (int w = 0; w < num_wheels_; ++w) {
+      pos[w] = samples_[i].position[w] + s * (samples_[i + 1].position[w] - samples_[i].position[w]);
+      steer[w] = samples_[i].steer[w] + s * (samples_[i + 1].steer[w] - samples_[i].steer[w]);
+    }
+  }
+
+  DriveType type_;
+  int num_wheels_;
+  std::vector<double> times_;  // s, relative to the interval's start stamp
+  std::vector<WheelSample> samples_;
+  double duration_;
+  Eigen::Vector3d measured_;
+  Eigen::Matrix3d sqrt_information_;
+};
+
+// The parameter vector: drive parameters, mount, time offset.
+struct State {
+  double params[kMaxParams] = {0, 0, 0, 0, 0};
+  double mount[3] = {0, 0, 0};
+  double offset[1] = {0};
+};
+
+struct Interval {
+  const SensorMotion* motion;
+  std::unique_ptr<IntervalCost> cost;
+  std::unique_ptr<ceres::CostFunction> function;
+  bool heldout = false;
+  bool outlier = false;
+};
+
+Eigen::Matrix3d SqrtInformation(const Eigen::Matrix3d& covariance) {
+  Eigen::LLT<Eigen::Matrix3d> llt(covariance.inverse());
+  if (!covariance.allFinite() || llt.info() != Eigen::Success || !llt.matrixU().toDenseMatrix().allFinite()) {
+    return Eigen::Vector3d(1.0 / 0.01, 1.0 / 0.01, 1.0 / 0.005).asDiagonal();  // 1 cm, 0.3 deg
+  }
+  return llt.matrixU();
+}
+
+template <int N>
+ceres::CostFunction* MakeFunction(IntervalCost* cost) {
+  return new ceres::AutoDiffCostFunction<IntervalCost, 3, N, 3, 1>(cost, ceres::DO_NOT_TAKE_OWNERSHIP);
+}
+
+// Whitened residual chi-square of an interval at `state`.
+double Chi2(const Interval& interval, const State& state) {
+  double r[3];
+  const double* blocks[3] = {state.params, state.mount, state.offset};
+  interval.function->Evaluate(blocks, r, nullptr);
+  return r[0] * r[0] + r[1] * r[1] + r[2] * r[2];
+}
+
+Eigen::Vector3d Error(const Interval& interval, const State& state) {
+  double e[3];
+  interval.cost->Error(state.params, state.mount, state.offset, e);
+  return {e[0], e[1], e[2]};
+}
+
+double Median(std::vector<double> v) {
+  if (v.empty()) return 0.0;
+  std::nth_element(v.begin(), v.begin() + v.size() / 2, v.end());
+  return v[v.size() / 2];
+}
+
+// Least squares over the intervals selected, with the residuals divided by `scale`.
+void Solve(std::vector<Interval>& intervals, State* state, int num_params, double scale, bool robust, bool estimate_offset, double max_offset) {
+  ceres::Problem::Options problem_options;
+  problem_options.cost_function_ownership = ceres::DO_NOT_TAKE_OWNERSHIP;
+  problem_options.loss_function_ownership = ceres::TAKE_OWNERSHIP;
+  ceres::Problem problem(problem_options);
+  problem.AddParameterBlock(state->params, num_params);
+  problem.AddParameterBlock(state->mount, 3);
+  problem.AddParameterBlock(state->offset, 1);
+  for (Interval& it : intervals) {
+    if (it.heldout || it.outlier) continue;
+    // The residual divided by `scale` is a chi-square cost scaled by 1/scale^2.
+    ceres::LossFunction* loss = new ceres::ScaledLoss(
+        robust ? new ceres::CauchyLoss(3.0 * scale) : nullptr, 1.0 / (scale * scale),
+        ceres::TAKE_OWNERSHIP);
+    problem.AddResidualBlock(it.function.get(), loss, state->params, state->mount, state->offset);
+  }
+  if (estimate_offset) {
+    problem.SetParameterLowerBound(state->offset, 0, -max_offset);
+    problem.SetParameterUpperBound(state->offset, 0, max_offset);
+  } else {
+    problem.SetParameterBlockConstant(state->offset);
+  }
+  ceres::Solver::Options options;
+  options.linear_solver_type = ceres::DENSE_QR;
+  options.max_num_iterations = 100;
+  options.function_tolerance = 1e-12;
+  options.parameter_tolerance = 1e-12;
+  options.num_threads = 1;  // deterministic sums
+  ceres::Solver::Summary summary;
+  ceres::Solve(options, &problem, &summary);
+}
+
+// Thresholds on one sigma beyond which the recording cannot determine a parameter, and the
+// motion that would.
+struct Requirement {
+  double refuse;  // one sigma above this: not determined
+  std::string remedy;
+};
+
+Requirement RequirementFor(DriveType type, const std::string& name, double nominal) {
+  const double length = std::max(std::abs(nominal), 0.1);
+  if (name.find("radius") != std::string::npos)
+    return {0.05 * std::abs(nominal), "drive straight over a few metres, forward and back"};
+  if (name == "track")
+    return {0.1 * length, "turn: arcs of different curvature or turns in place, both ways"};
+  if (name == "wheelbase" || name == "steer_offset")
+    return {name == "wheelbase" ? 0.1 * length : 0.087,
+            "drive arcs at two or more distinct steering angles, to both sides"};
+  if (name == "b" || name == "a1_steer_offset")
+    return {name == "b" ? 0.1 * length : 0.087,
+            "drive arcs with a1 steered to both sides while a2 stays at zero"};
+  if (name == "a")
+    return {0.1 * length, "turn while a2 is driven: arcs with a1 steered and a2 at zero"};
+  if (name == "time_offset")
+    return {0.05, "change speed and turn rate often: starts, stops and changing arcs"};
+  if (name.size() > 4 && name.compare(name.size() - 4, 4, ".yaw") == 0)
+    return {0.087, "drive straight as well as turning"};
+  return {0.05, "turn while driving: the sensor's position shows only when the robot rotates"};
+}
+
+// Chains one window's steps; Close() adds the window to `out`.
+class WindowChain {
+ public:
+  explicit WindowChain(OdometryError* out) : out_(out) {}
+  bool open() const { return open_; }
+  double distance() const { return distance_; }
+  int64_t start() const { return start_; }
+  int64_t end() const { return end_; }
+  void Add(const OdometryStep& step) {
+    if (!open_) {
+      measured_ = predicted_ = Pose2{};
+      distance_ = 0.0;
+      start_ = step.utime_start;
+      open_ = true;
+    }
+    const Pose2& z = step.measured;
+    measured_ = Compose(measured_, z);
+    predicted_ = Compose(predicted_, Pose2{z.x - step.error[0], z.y - step.error[1], z.theta - step.error[2]});
+    distance_ += std::hypot(z.x, z.y);
+    end_ = step.utime_end;
+  }
+  void Close(bool keep) {
+    if (open_ && keep) {
+      const Pose2 d = Between(predicted_, measured_);
+      out_->per_window.push_back({start_, end_, distance_, std::hypot(d.x, d.y), d.theta});
+    }
+    open_ = false;
+  }
+
+ private:
+  OdometryError* out_;
+  Pose2 measured_, predicted_;
+  int64_t start_ = 0, end_ = 0;
+  double distance_ = 0.0;
+  bool open_ = false;
+};
+
+void Summarize(OdometryError* out) {
+  double sum_t2 = 0, sum_h2 = 0, sum_t = 0;
+  out->windows = static_cast<int>(out->per_window.size());
+  out->distance_m = 0.0;
+  for (const WindowError& w : out->per_window) {
+    sum_t2 += w.translation_m * w.translation_m;
+    sum_t += w.translation_m;
+    sum_h2 += w.heading_rad * w.heading_rad;
+    out->distance_m += w.distance_m;
+  }
+  if (out->windows > 0) {
+    out->rms_translation_m = std::sqrt(sum_t2 / out->windows);
+    out->rms_heading_rad = std::sqrt(sum_h2 / out->windows);
+    out->error_per_metre = out->distance_m > 0 ? sum_t / out->distance_m : 0.0;
+  }
+}
+
+}  // namespace
+
+OdometryError OdometryErrorOverWindows(const std::vector<OdometryStep>& steps, double window_s,
+                                       bool keep_partial) {
+  OdometryError out;
+  WindowChain chain(&out);
+  for (const OdometryStep& step : steps) {
+    if (chain.open() && step.utime_start != chain.end()) chain.Close(keep_partial);  // a gap
+    chain.Add(step);
+    if ((chain.end() - chain.start()) * 1e-6 >= window_s) chain.Close(true);
+  }
+  chain.Close(keep_partial);
+  Summarize(&out);
+  return out;
+}
+
+OdometryError OdometryErrorOverPath(const std::vector<OdometryStep>& steps, double window_m) {
+  OdometryError out;
+  WindowChain chain(&out);
+  for (const OdometryStep& step : steps) {
+    if (chain.open() && step.utime_start != chain.end()) chain.Close(chain.distance() >= 0.5 * window_m);
+    chain.Add(step);
+    if (chain.distance() >= window_m) chain.Close(true);
+  }
+  chain.Close(chain.distance() >= 0.5 * window_m);
+  Summarize(&out);
+  return out;
+}
+
+double PathWindowLength(const std::vector<OdometryStep>& steps, int min_windows) {
+  double path = 0.0;
+  for (const OdometryStep& s : steps) path += std::hypot(s.measured.x, s.measured.y);
+  double best = path;
+  int best_count = 0;
+  for (double length = path; length > 1e-4 * path; length *= 0.95) {
+    const int count = OdometryErrorOverPath(steps, length).windows;
+    if (count >= min_windows) return length;
+    if (count > best_count) best = length, best_count = count;
+  }
+  return best;
+}
+
+PairedComparison ComparePaired(const OdometryError& first, const OdometryError& second) {
+  PairedComparison c;
+  const std::size_t n = std::min(first.per_window.size(), second.per_window.size());
+  c.windows = static_cast<int>(n);
+  std::vector<double> diff;
+  for (std::size_t i = 0; i < n; ++i) {
+    const double d = second.per_window[i].translation_m - first.per_window[i].translation_m;
+    diff.push_back(d);
+    if (std::abs(d) <= 1e-9) ++c.ties;
+    else if (d < 0) ++c.second_better;
+  }
+  if (n == 0) return c;
+  double mean = 0, var = 0;
+  for (double d : diff) mean += d / n;
+  for (double d : diff) var += (d - mean) * (d - mean) / std::max<double>(1, n - 1);
+  c.mean_difference_m = mean;
+  c.difference_sem_m = std::sqrt(var / n);
+  // Exact two-sided binomial: twice the smaller tail of Binomial(m, 1/2), in logs (no overflow).
+  const int m = c.windows - c.ties, k = std::min(c.second_better, m - c.second_better);
+  double tail = 0.0;
+  for (int j = 0; j <= k; ++j)
+    tail += std::exp(std::lgamma(m + 1.0) - std::lgamma(j + 1.0) - std::lgamma(m - j + 1.0) - m * std::log(2.0));
+  c.sign_test_p = m > 0 ? std::min(1.0, 2.0 * tail) : 1.0;
+  return c;
+}
+
+namespace {
+
+std::vector<OdometryStep> HeldoutSteps(const std::vector<Interval>& intervals, const State& state) {
+  std::vector<OdometryStep> steps;
+  for (const Interval& it : intervals) {
+    if (!it.heldout) continue;
+    const Eigen::Vector3d e = Error(it, state);
+    steps.push_back({it.motion->utime_start, it.motion->utime_end, it.motion->delta, {e[0], e[1], e[2]}});
+  }
+  return steps;
+}
+
+OdometryError HeldoutOdometry(const std::vector<Interval>& intervals, const State& state,
+                              double window_s, bool keep_partial = false) {
+  return OdometryErrorOverWindows(HeldoutSteps(intervals, state), window_s, keep_partial);
+}
+
+double Percentile(std::vector<double> v, double q) {
+  if (v.empty()) return 0.0;
+  std::sort(v.begin(), v.end());
+  return v[std::min(v.size() - 1, static_cast<std::size_t>(q * (v.size() - 1) + 0.5))];
+}
+
+// Fit half against held-out half in the regressor that separates the drive parameters: the
+// steering angle of a steered drive, the share of turning in the wheels' rotation (0 straight,
+// ±1 in place) of a differential drive.
+MotionCoverage CompareMotion(DriveType drive, const WheelTrack& wheels,
+                             const std::vector<Interval>& intervals) {
+  MotionCoverage c;
+  const bool steered = drive != DriveType::kDifferential;
+  c.regressor = steered ? "steer" : "turn_share";
+  std::vector<double> fit, heldout;
+  std::vector<const Interval*> heldout_intervals;
+  for (const Interval& it : intervals) {
+    const double t0 = it.motion->utime_start, t1 = it.motion->utime_end;
+    double x;
+    if (steered) {
+      x = wheels.At(0.5 * (t0 + t1)).steer[0];
+    } else {
+      const WheelSample a = wheels.At(t0), b = wheels.At(t1);
+      const double l = b.position[0] - a.position[0], r = b.position[1] - a.position[1];
+      if (std::abs(l) + std::abs(r) < 1e-9) continue;  // standing still: no motion to compare
+      x = (r - l) / (std::abs(l) + std::abs(r));
+    }
+    (it.heldout ? heldout : fit).push_back(x);
+    if (it.heldout) heldout_intervals.push_back(&it);
+  }
+  c.fit_low = Percentile(fit, 0.01);
+  c.fit_high = Percentile(fit, 0.99);
+  c.heldout_low = Percentile(heldout, 0.01);
+  c.heldout_high = Percentile(heldout, 0.99);
+  // A margin of 2 % of the range, so that one count of a coarse encoder past it is not news.
+  const double margin = 0.02 * (c.fit_high - c.fit_low);
+  int outside = 0;
+  for (std::size_t k = 0; k < heldout.size(); ++k) {
+    if (heldout[k] >= c.fit_low - margin && heldout[k] <= c.fit_high + margin) continue;
+    ++outside;
+    c.outside_spans.emplace_back(heldout_intervals[k]->motion->utime_start, heldout_intervals[k]->motion->utime_end);
+  }
+  c.heldout_outside = heldout.empty() ? 0.0 : double(outside) / heldout.size();
+  return c;
+}
+
+// The motions the encoders cover (with `margin_us` either side), in stamp order; the others
+// are counted in `summary`.
+std::vector<const SensorMotion*> UsableMotions(const WheelTrack& wheels,
+                                               const std::vector<SensorMotion>& motions,
+                                               double margin_us, ResidualSummary* summary) {
+  std::vector<const SensorMotion*> usable;
+  for (const SensorMotion& m : motions) {
+    if (!m.valid || m.utime_end <= m.utime_start) {
+      ++summary->invalid;
+    } else if (m.degenerate) {
+      ++summary->degenerate;
+    } else if (!wheels.Covers(m.utime_start - margin_us, m.utime_end + margin_us)) {
+      ++summary->invalid;
+    } else {
+      usable.push_back(&m);
+    }
+  }
+  std::stable_sort(usable.begin(), usable.end(), [](const SensorMotion* a, const SensorMotion* b) {
+    return a->utime_start < b->utime_start;
+  });
+  return usable;
+}
+
+// The cost of an interval: the encoder samples spanning it, times relative to its start.
+Interval MakeInterval(DriveType drive, int num_params, const WheelTrack& wheels,
+                      const SensorMotion& m, double margin_us, bool heldout) {
+  const auto& samples = wheels.samples();
+  const double t0 = m.utime_start - margin_us, t1 = m.utime_end + margin_us;
+  auto first = std::upper_bound(samples.begin(), samples.end(), t0,
+                                [](double t, const WheelSample& s) { return t < s.utime; });
+  if (first != samples.begin()) --first;
+  auto last = std::lower_bound(samples.begin(), samples.end(), t1,
+                               [](const WheelSample& s, double t) { return s.utime < t; });
+  if (last == samples.end()) --last;
+  std::vector<WheelSample> span(first, last + 1);
+  std::vector<double> times;
+  for (const WheelSample& s : span) times.push_back((s.utime - m.utime_start) * 1e-6);
+  Interval it;
+  it.motion = &m;
+  it.heldout = heldout;
+  const int num_wheels = static_cast<int>(WheelRoles(drive).size());
+  it.cost = std::make_unique<IntervalCost>(drive, num_wheels, std::move(times), std::move(span),
+                                           (m.utime_end - m.utime_start) * 1e-6, m.delta,
+                                           SqrtInformation(m.covariance));
+  it.function.reset(num_params == 3 ? MakeFunction<3>(it.cost.get()) : MakeFunction<5>(it.cost.get()));
+  return it;
+}
+
+// The robot file's values: drive parameters and the mount of `source` (0 when it has none).
+State StateOf(const RobotDescription& robot, MotionSource source) {
+  State state;
+  const std::vector<std::string>& names = ParamNames(robot.drive);
+  for (std::size_t i = 0; i < names.size(); ++i) state.params[i] = robot.params.at(names[i]);
+  const std::optional<Mount2d>& mount = source == MotionSource::kPose ? robot.pose : robot.lidar2d;
+  if (mount) {
+    state.mount[0] = mount->x;
+    state.mount[1] = mount->y;
+    state.mount[2] = mount->yaw;
+  }
+  return state;
+}
+
+// The spread M of the per-interval scores J_k' r_k for the sandwich covariance (J_k, r_k the
+// whitened Jacobian and residual of interval k). Neighbouring intervals share an observation (a
+// scan, a pose), so their errors are anti-correlated and M is a small difference of large
+// terms. Summed over the sample's own products (sum s_k s_k' + s_k s_k-1' + s_k-1 s_k') it
+// comes out near zero or negative in some directions by chance, which would claim a parameter
+// known exactly (we saw 10 sigma errors). So the residuals' covariance is modelled instead: one
+// 3x3 covariance C0 and one neighbour covariance C1, pooled over the recording after dividing
+// each residual by its local size w_k (the rms over kLocalScaleHalfWidth intervals either side,
+// since the noise grows with the motion), giving
+//   M = sum w_k^2 J_k' C0 J_k + w_k w_k-1 (J_k' C1 J_k-1 + J_k-1' C1' J_k).
+// C1 is shrunk until the block-Toeplitz covariance of the residuals is positive semi-definite,
+// so M is too.
+Eigen::MatrixXd ScoreSpread(const std::vector<Eigen::MatrixXd>& jacobians, const std::vector<Eigen::Vector3d>& residuals,
+                            const std::vector<bool>& follows_previous) {
+  constexpr int kLocalScaleHalfWidth = 5;
+  const int n = static_cast<int>(residuals.size());
+  const int dim = n > 0 ? static_cast<int>(jacobians[0].cols()) : 0;
+  std::vector<double> scale(n);
+  for (int k = 0; k < n; ++k) {
+    double sum = 0.0;
+    int count = 0;
+    for (int j = std::max(0, k - kLocalScaleHalfWidth); j <= std::min(n - 1, k + kLocalScaleHalfWidth); ++j) {
+      sum += residuals[j].squaredNorm() / 3.0;
+      ++count;
+    }
+    scale[k] = std::sqrt(std::max(sum / count, 1e-300));
+  }
+  Eigen::Matrix3d c0 = Eigen::Matrix3d::Zero(), c1 = Eigen::Matrix3d::Zero();
+  int pairs = 0;
+  for (int k = 0; k < n; ++k) {
+    const Eigen::Vector3d u = residuals[k] / scale[k];
+    c0 += u * u.transpose();
+    if (follows_previous[k]) {
+      c1 += u * (residuals[k - 1] / scale[k - 1]).transpose();
+      ++pairs;
+    }
+  }
+  c0 /= std::max(1, n);
+  c1 /= std::max(1, pairs);
+  // The residuals' covariance is positive semi-definite when c0 + c1 e^iw + c1' e^-iw is for
+  // every frequency w (as a Hermitian 3x3, written as a real 6x6).
+  const auto positive = [&](const Eigen::Matrix3d& cross) {
+    for (int step = 0; step <= 64; ++step) {
+      const double w = M_PI * step / 64;
+      const Eigen::Matrix3d re = c0 + std::cos(w) * (cross + cross.transpose());
+      const Eigen::Matrix3d im = std::sin(w) * (cross - cross.transpose());
+      Eigen::Matrix<double, 6, 6> h;
+      h << re, -im, im, re;
+      if (Eigen::SelfAdjointEigenSolver<Eigen::Matrix<double, 6, 6>>(h).eigenvalues()[0] < 0.0) return false;
+    }
+    return true;
+  };
+  double shrink = 1.0;
+  while (shrink > 0.0 && !positive(shrink * c1)) shrink -= 0.02;
+  c1 *= std::max(shrink, 0.0);
+  Eigen::MatrixXd spread = Eigen::MatrixXd::Zero(dim, dim);
+  for (int k = 0; k < n; ++k) {
+    spread += scale[k] * scale[k] * jacobians[k].transpose() * c0 * jacobians[k];
+    if (follows_previous[k]) {
+      const Eigen::MatrixXd cross = scale[k] * scale[k - 1] * jacobians[k].transpose() * c1 * jacobians[k - 1];
+      spread += cross + cross.transpose();
+    }
+  }
+  return spread;
+}
+
+}  // namespace
+
+const char* MotionSourceName(MotionSource source) {
+  switch (source) {
+    case MotionSource::kPose: return "pose";
+    case MotionSource::kImu: return "imu";
+    case MotionSource::kLidar2d: break;
+  }
+  return "lidar2d";
+}
+
+double ChiSquareUpperTail(double x, int dof) {
+  return x <= 0 ? 1.0 : Eigen::numext::igammac(0.5 * dof, 0.5 * x);
+}
+
+EstimateDifference CompareEstimates(const Eigen::VectorXd& delta, const Eigen::MatrixXd& sum,
+                                    const std::vector<std::string>& names) {
+  EstimateDifference d;
+  d.dof = static_cast<int>(delta.size());
+  d.d2 = delta.dot(sum.ldlt().solve(delta));
+  if (!std::isfinite(d.d2) || d.d2 < 0) d.d2 = INFINITY;
+  d.p = ChiSquareUpperTail(d.d2, d.dof);
+  for (int i = 0; i < d.dof; ++i) {
+    const double sigmas = std::abs(delta[i]) / std::sqrt(sum(i, i));
+    if (sigmas > d.largest_sigmas || d.largest.empty()) {
+      d.largest = names[i];
+      d.largest_sigmas = sigmas;
+    }
+  }
+  return d;
+}
+
+namespace {
+
+// A result's estimates in the order of its `estimated_names` (and `covariance`).
+std::vector<Estimate> EstimatesInOrder(const CalibrationResult& r) {
+  std::vector<Estimate> out;
+  for (const std::string& name : r.param_names) out.push_back(r.params.at(name));
+  for (const Estimate& e : {r.mount_x, r.mount_y, r.mount_yaw}) out.push_back(e);
+  if (r.time_offset) out.push_back(*r.time_offset);
+  return out;
+}
+
+// The held-out half's own fit against the fit half's `fit` (HalvesAgreement).
+std::optional<HalvesAgreement> CompareHalves(const RobotDescription& robot, const WheelTrack& wheels,
+                                             const std::vector<SensorMotion>& heldout_motions,
+                                             MotionSource source, const CalibrationOptions& options,
+                                             const std::string& origin, const CalibrationResult& fit) {
+  CalibrationOptions alone = options;
+  alone.fit_fraction = 1.0;
+  alone.check_observability = false;
+  CalibrationResult other;
+  try {
+    other = Calibrate(robot, wheels, heldout_motions, source, alone, origin + " (held-out half)");
+  } catch (const InputError&) {
+    return std::nullopt;  // too few intervals
+  }
+  if (other.estimated_names != fit.estimated_names) return std::nullopt;
+  const std::vector<Estimate> mine = EstimatesInOrder(fit), theirs = EstimatesInOrder(other);
+  const int dim = static_cast<int>(mine.size());
+  HalvesAgreement a;
+  Eigen::VectorXd delta(dim);
+  const Eigen::MatrixXd sum = fit.covariance + other.covariance;
+  for (int i = 0; i < dim; ++i) {
+    if (!std::isfinite(mine[i].std) || !std::isfinite(theirs[i].std) || !(sum(i, i) > 0.0))
+      return std::nullopt;  // a value one half cannot determine
+    delta[i] = WrapAngle(theirs[i].value - mine[i].value);  // a no-op on all but the angles
+    a.heldout_fit[fit.estimated_names[i]] = theirs[i];
+  }
+  const EstimateDifference d = CompareEstimates(delta, sum, fit.estimated_names);
+  if (std::isinf(d.d2)) return std::nullopt;
+  a.d2 = d.d2, a.dof = d.dof, a.p = d.p, a.largest = d.largest, a.largest_sigmas = d.largest_sigmas;
+  const auto largest = std::find(fit.estimated_names.begin(), fit.estimated_names.end(), d.largest);
+  a.largest_in_fit = mine[largest - fit.estimated_names.begin()];
+  return a;
+}
+
+}  // namespace
+
+CalibrationResult Calibrate(const RobotDescription& robot, const WheelTrack& wheels,
+                            const std::vector<SensorMotion>& motions, MotionSource source,
+                            const CalibrationOptions& options, const std::string& origin) {
+  CalibrationResult result;
+  result.drive = robot.drive;
+  result.source = source;
+  result.param_names = ParamNames(robot.drive);
+  const int num_params = static_cast<int>(result.param_names.size());
+  const std::string mount_name = MotionSourceName(source);
+
+  // Intervals the encoders cover (with room for the time offset), in stamp order.
+  const double margin_us = options.estimate_time_offset ? options.max_time_offset_s * 1e6 : 0.0;
+  const std::vector<const SensorMotion*> usable = UsableMotions(wheels, motions, margin_us, &result.residual);
+  const std::size_t num_fit =
+      static_cast<std::size_t>(std::floor(usable.size() * std::clamp(options.fit_fraction, 0.0, 1.0)));
+  if (num_fit < 20) {
+    throw InputError(origin, "sensor motions",
+                     "only " + std::to_string(num_fit) + " usable intervals with encoder data (" +
+                         std::to_string(motions.size()) + " motions, " +
+                         std::to_string(result.residual.degenerate) + " degenerate, " +
+                         std::to_string(result.residual.invalid) +
+                         " failed or outside the encoder data); at least 20 are needed");
+  }
+
+  std::vector<Interval> intervals;
+  std::vector<MotionInterval> closed_form_input;
+  for (std::size_t k = 0; k < usable.size(); ++k) {
+    const SensorMotion& m = *usable[k];
+    intervals.push_back(MakeInterval(robot.drive, num_params, wheels, m, margin_us, k >= num_fit));
+    if (k < num_fit) closed_form_input.push_back({wheels.Increments(m.utime_start, m.utime_end), m.delta});
+  }
+
+  // 1. Closed-form first estimate; the nominal values where it is not available or implausible.
+  const State nominal = StateOf(robot, source);
+  State state = nominal;
+  const ClosedFormEstimate cf = ClosedFormCalibration(robot.drive, robot.params, closed_form_input);
+  if (cf.ok) {
+    for (int i = 0; i < num_params; ++i) result.closed_form[result.param_names[i]] = cf.params.at(result.param_names[i]);
+    result.closed_form["mount_x"] = cf.mount.x;
+    result.closed_form["mount_y"] = cf.mount.y;
+    result.closed_form["mount_yaw"] = cf.mount.theta;
+    // Plausible: every length within a factor of two of nominal, same sign.
+    bool plausible = true;
+    for (int i = 0; i < num_params; ++i) {
+      const std::string& name = result.param_names[i];
+      const double v = cf.params.at(name), n = nominal.params[i];
+      if (name.find("offset") == std::string::npos && std::abs(n) > 1e-6)
+        plausible = plausible && v / n > 0.5 && v / n < 2.0;
+    }
+    if (plausible) {
+      for (int i = 0; i < num_params; ++i) state.params[i] = cf.params.at(result.param_names[i]);
+      state.mount[0] = cf.mount.x;
+      state.mount[1] = cf.mount.y;
+      state.mount[2] = cf.mount.theta;
+    } else {
+      result.closed_form_note = "closed form far from nominal; refinement started from nominal";
+    }
+  } else {
+    result.closed_form_note = "closed form not available: " + cf.problem;
+  }
+
+  // 2. Robust fit with a scale from the residuals at the start, then outliers, then the
+  //    plain maximum-likelihood refit on the inliers.
+  auto robust_scale = [&]() {
+    std::vector<double> chi2;
+    for (const Interval& it : intervals)
+      if (!it.heldout && !it.outlier) chi2.push_back(Chi2(it, state));
+    return std::sqrt(std::max(Median(chi2) / kChi2Median3, 1e-12));
+  };
+  Solve(intervals, &state, num_params, robust_scale(), true, options.estimate_time_offset,
+        options.max_time_offset_s);
+  double scale = 1.0;
+  for (int round = 0; round < 2; ++round) {
+    scale = robust_scale();
+    for (Interval& it : intervals) {
+      if (!it.heldout) it.outlier = Chi2(it, state) / (scale * scale) > options.outlier_chi2;
+    }
+    Solve(intervals, &state, num_params, scale, false, options.estimate_time_offset,
+          options.max_time_offset_s);
+  }
+
+  // 3. Covariance: the sandwich H^-1 M H^-1 with H the information of the whitened Jacobians
+  //    and M the spread of the per-interval scores g_k = J_k^T r_k, including the covariance of
+  //    neighbouring intervals (ScoreSpread). Neighbours share an observation (a scan, a pose),
+  //    so their errors are correlated: a shared pose's noise cancels in the sum of two motions,
+  //    and treating them as independent would make every sigma wrong.
+  const int dim = num_params + 3 + (options.estimate_time_offset ? 1 : 0);
+  Eigen::MatrixXd information = Eigen::MatrixXd::Zero(dim, dim);
+  std::vector<Eigen::MatrixXd> inlier_jacobians;  // whitened
+  std::vector<Eigen::Vector3d> residuals;
+  std::vector<bool> follows_previous;  // the interval starts where the previous one ended
+  int64_t previous_end = -1;
+  double chi2_sum = 0.0;
+  int inliers = 0;
+  Eigen::Vector3d sum_e2 = Eigen::Vector3d::Zero();
+  for (const Interval& it : intervals) {
+    IntervalResidual r;
+    r.utime_start = it.motion->utime_start;
+    r.utime_end = it.motion->utime_end;
+    r.error = Error(it, state);
+    r.chi2 = Chi2(it, state) / (scale * scale);
+    r.outlier = it.outlier;
+    r.heldout = it.heldout;
+    result.intervals.push_back(r);
+    if (it.heldout || it.outlier) continue;
+    double residual[3];
+    std::vector<double> jp_compact(3 * num_params);  // row-major 3 x num_params
+    Eigen::Matrix<double, 3, 3, Eigen::RowMajor> jm;
+    Eigen::Matrix<double, 3, 1> jo;
+    double* jacobians[3] = {jp_compact.data(), jm.data(), jo.data()};
+    const double* values[3] = {state.params, state.mount, state.offset};
+    it.function->Evaluate(values, residual, jacobians);
+    Eigen::MatrixXd J(3, dim);
+    for (int row = 0; row < 3; ++row) {
+      for (int c = 0; c < num_params; ++c) J(row, c) = jp_compact[row * num_params + c];
+      for (int c = 0; c < 3; ++c) J(row, num_params + c) = jm(row, c);
+      if (options.estimate_time_offset) J(row, num_params + 3) = jo(row);
+    }
+    J /= scale;
+    information += J.transpose() * J;
+    follows_previous.push_back(!residuals.empty() && previous_end == it.motion->utime_start);
+    inlier_jacobians.push_back(J);
+    residuals.push_back(Eigen::Vector3d(residual[0], residual[1], residual[2]) / scale);
+    previous_end = it.motion->utime_end;
+    chi2_sum += r.chi2;
+    sum_e2 += r.error.cwiseAbs2();
+    ++inliers;
+  }
+  result.residual.intervals = static_cast<int>(num_fit);
+  for (const Interval& it : intervals) result.residual.outliers += (!it.heldout && it.outlier) ? 1 : 0;
+  result.residual.rms_x = std::sqrt(sum_e2[0] / inliers);
+  result.residual.rms_y = std::sqrt(sum_e2[1] / inliers);
+  result.residual.rms_yaw = std::sqrt(sum_e2[2] / inliers);
+  const double variance_factor = chi2_sum / std::max(1, 3 * inliers - dim);
+  result.residual.variance_factor = variance_factor * scale * scale;
+  // The sample spread is a little small by the parameters fitted; the usual dof correction.
+  const Eigen::MatrixXd spread =
+      ScoreSpread(inlier_jacobians, residuals, follows_previous) * (double(3 * inliers) / std::max(1, 3 * inliers - dim));
+
+  for (int i = 0; i < num_params; ++i) result.estimated_names.push_back(result.param_names[i]);
+  for (const char* axis : {".x", ".y", ".yaw"}) result.estimated_names.push_back(mount_name + axis);
+  if (options.estimate_time_offset) result.estimated_names.push_back("time_offset");
+
+  // Observability: eigen-analysis of the correlation-normalised information.
+  const Eigen::VectorXd d = information.diagonal().cwiseMax(1e-300).cwiseSqrt();
+  const Eigen::MatrixXd correlation = d.asDiagonal().inverse() * information * d.asDiagonal().inverse();
+  Eigen::SelfAdjointEigenSolver<Eigen::MatrixXd> eig(correlation);
+  const double lmin = std::max(eig.eigenvalues()[0], 0.0), lmax = eig.eigenvalues()[dim - 1];
+  result.condition = lmin > 0 ? lmax / lmin : INFINITY;
+  // Pseudo-inverse restricted to the determined directions, so a singular direction shows as
+  // an unbounded sigma rather than a crash.
+  Eigen::VectorXd inv = Eigen::VectorXd::Zero(dim);
+  for (int i = 0; i < dim; ++i)
+    inv[i] = eig.eigenvalues()[i] > 1e-12 * lmax ? 1.0 / eig.eigenvalues()[i] : 0.0;
+  const Eigen::MatrixXd correlation_inverse =
+      eig.eigenvectors() * inv.asDiagonal() * eig.eigenvectors().transpose();
+  const Eigen::MatrixXd information_inverse =
+      d.asDiagonal().inverse() * correlation_inverse * d.asDiagonal().inverse();
+  result.covariance = information_inverse * spread * information_inverse;
+  std::vector<double> sigma(dim);
+  for (int i = 0; i < dim; ++i) {
+    sigma[i] = std::sqrt(std::max(result.covariance(i, i), 0.0));
+    for (int e = 0; e < dim; ++e) {  // a parameter in a singular direction is not determined
+      if (inv[e] == 0.0 && std::abs(eig.eigenvectors()(i, e)) > 0.3) sigma[i] = INFINITY;
+    }
+    if (d[i] <= 1e-150) sigma[i] = INFINITY;
+  }
+
+  auto estimate = [&](int i, double value, double nominal_value) {
+    return Estimate{value, sigma[i], nominal_value};
+  };
+  for (int i = 0; i < num_params; ++i)
+    result.params[result.param_names[i]] = estimate(i, state.params[i], nominal.params[i]);
+  result.mount_x = estimate(num_params, state.mount[0], nominal.mount[0]);
+  result.mount_y = estimate(num_params + 1, state.mount[1], nominal.mount[1]);
+  result.mount_yaw = estimate(num_params + 2, WrapAngle(state.mount[2]), nominal.mount[2]);
+  if (options.estimate_time_offset) result.time_offset = estimate(num_params + 3, state.offset[0], 0.0);
+
+  // Refuse what the data cannot determine; list what they determine poorly.
+  std::vector<std::string> refused, remedies;
+  const double nominal_values[] = {nominal.params[0], nominal.params[1], nominal.params[2],
+                                   nominal.params[3], nominal.params[4]};
+  for (int i = 0; i < dim; ++i) {
+    const std::string& name = result.estimated_names[i];
+    const Requirement req = RequirementFor(robot.drive, name, i < num_params ? nominal_values[i] : 0.0);
+    if (!(sigma[i] <= req.refuse)) {
+      refused.push_back(name);
+      if (std::find(remedies.begin(), remedies.end(), req.remedy) == remedies.end())
+        remedies.push_back(req.remedy);
+    } else if (sigma[i] > 0.1 * req.refuse) {
+      result.weak.push_back(name);
+    }
+  }
+  if (options.check_observability && !refused.empty()) {
+    std::ostringstream what, remedy;
+    what << origin << ": the recording cannot determine ";
+    for (std::size_t i = 0; i < refused.size(); ++i) what << (i ? ", " : "") << refused[i];
+    for (std::size_t i = 0; i < remedies.size(); ++i) remedy << (i ? "; " : "") << remedies[i];
+    throw UnobservableError(what.str(), remedy.str());
+  }
+  result.weak.insert(result.weak.end(), refused.begin(), refused.end());
+
+  // Held-out comparison of the nominal and the calibrated model.
+  if (num_fit < intervals.size()) {
+    HeldoutComparison h;
+    h.intervals = static_cast<int>(intervals.size() - num_fit);
+    const std::vector<OdometryStep> nominal_steps = HeldoutSteps(intervals, nominal);
+    h.window_m = PathWindowLength(nominal_steps, options.heldout_windows);
+    h.nominal = OdometryErrorOverPath(nominal_steps, h.window_m);
+    h.calibrated = OdometryErrorOverPath(HeldoutSteps(intervals, state), h.window_m);
+    h.paired = ComparePaired(h.nominal, h.calibrated);
+    h.coverage = CompareMotion(robot.drive, wheels, intervals);
+    OdometryError inside[2];
+    for (std::size_t w = 0; w < h.nominal.per_window.size(); ++w) {
+      const WindowError& a = h.nominal.per_window[w];
+      const bool extrapolated = std::any_of(
+          h.coverage.outside_spans.begin(), h.coverage.outside_spans.end(),
+          [&](const auto& span) { return span.first < a.utime_end && span.second > a.utime_start; });
+      if (extrapolated) continue;
+      inside[0].per_window.push_back(a);
+      inside[1].per_window.push_back(h.calibrated.per_window[w]);
+    }
+    h.paired_within_fit_range = ComparePaired(inside[0], inside[1]);
+    std::vector<SensorMotion> heldout_motions;
+    for (std::size_t k = num_fit; k < usable.size(); ++k) heldout_motions.push_back(*usable[k]);
+    h.halves = CompareHalves(robot, wheels, heldout_motions, source, options, origin, result);
+    result.heldout = h;
+  }
+  return result;
+}
+
+OdometryError EvaluateOdometry(const RobotDescription& robot, MotionSource source,
+                               const WheelTrack& wheels, const std::vector<SensorMotion>& motions,
+                               double window_s) {
+  ResidualSummary ignored;
+  const int num_params = static_cast<int>(ParamNames(robot.drive).size());
+  std::vector<Interval> intervals;
+  for (const SensorMotion* m : UsableMotions(wheels, motions, 0.0, &ignored))
+    intervals.push_back(MakeInterval(robot.drive, num_params, wheels, *m, 0.0, true /* heldout */));
+  return HeldoutOdometry(intervals, StateOf(robot, source), window_s, true /* keep_partial */);
+}
+
+RobotDescription Calibrated(const RobotDescription& robot, const CalibrationResult& result) {
+  RobotDescription out = robot;
+  for (const auto& [name, e] : result.params) out.params[name] = e.value;
+  if (result.imu) {
+    if (!out.imu) out.imu = ImuMount{};
+    out.imu->gyro_bias = result.imu->gyro_bias.value;
+    out.imu->gyro_scale = result.imu->gyro_scale.value;
+    if (std::isfinite(result.imu->yaw.std)) out.imu->yaw = result.imu->yaw.value;
+    out.imu->time_offset = result.imu->time_offset.value;
+    out.imu->gyro_noise = result.imu->gyro_noise;
+    out.imu->wheel_noise = result.imu->wheel_noise;
+    return out;
+  }
+  std::optional<Mount2d>& mount = result.source == MotionSource::kPose ? out.pose : out.lidar2d;
+  if (!mount) mount = Mount2d{result.source == MotionSource::kPose ? "POSE" : "SCAN", 0, 0, 0};
+  mount->x = result.mount_x.value;
+  mount->y = result.mount_y.value;
+  mount->yaw = result.mount_yaw.value;
+  return out;
+}
+
+}  // namespace calib

@@ -1,0 +1,63 @@
+#include "calib/calibrate/calibration_data.h"
+
+#include <cmath>
+
+#include <Eigen/Dense>
+
+namespace calib {
+
+void CalibrationData::AddWheels(const agvcal::wheel_state_t& message, const std::string& origin) {
+  AddWheels(WheelSampleFromMessage(message, robot_, origin));
+}
+
+void CalibrationData::AddWheels(const WheelSample& sample) {
+  if (!wheels_.Append(sample)) ++dropped_wheels_;
+}
+
+void CalibrationData::AddPose(const agvcal::pose2d_t& message) {
+  const bool finite = std::isfinite(message.x) && std::isfinite(message.y) && std::isfinite(message.theta);
+  if (!finite || (last_pose_ && message.utime <= last_pose_->utime)) {
+    ++dropped_poses_;
+    return;
+  }
+  if (std::optional<SensorMotion> motion = pose_intervals_.Add(message)) motions_.push_back(*motion);
+  last_pose_ = message;
+}
+
+void CalibrationData::AddMotion(const SensorMotion& motion) { motions_.push_back(motion); }
+
+void CalibrationData::AddImu(const agvcal::imu_t& message, const std::string& origin) {
+  imu_.push_back(ImuSampleFromMessage(message, origin));
+}
+
+std::optional<SensorMotion> PoseIntervals::Add(const agvcal::pose2d_t& pose) {
+  if (!start_) {
+    start_ = pose;
+    return std::nullopt;
+  }
+  if (pose.utime - start_->utime < std::llround(kMinPoseIntervalS * 1e6)) return std::nullopt;
+  const SensorMotion motion = MotionBetweenPoses(*start_, pose);
+  start_ = pose;
+  return motion;
+}
+
+SensorMotion MotionBetweenPoses(const agvcal::pose2d_t& from, const agvcal::pose2d_t& to) {
+  SensorMotion m;
+  m.utime_start = from.utime;
+  m.utime_end = to.utime;
+  m.delta = Between({from.x, from.y, from.theta}, {to.x, to.y, to.theta});
+  m.inlier_fraction = 1.0;
+  const Eigen::Matrix3d c0 = Eigen::Map<const Eigen::Matrix<double, 3, 3, Eigen::RowMajor>>(from.cov);
+  const Eigen::Matrix3d c1 = Eigen::Map<const Eigen::Matrix<double, 3, 3, Eigen::RowMajor>>(to.cov);
+  Eigen::Matrix3d sum = c0 + c1;
+  if (!sum.allFinite() || sum.diagonal().minCoeff() <= 0.0) {
+    sum = Eigen::Vector3d(1e-4, 1e-4, std::pow(0.5 * M_PI / 180.0, 2)).asDiagonal();
+  }
+  // Both poses' errors, in the world frame, carried into the first pose's frame.
+  Eigen::Matrix3d rotation = Eigen::Matrix3d::Identity();
+  rotation.topLeftCorner<2, 2>() = Eigen::Rotation2Dd(from.theta).toRotationMatrix().transpose();
+  m.covariance = rotation * sum * rotation.transpose();
+  return m;
+}
+
+}  // namespace calib

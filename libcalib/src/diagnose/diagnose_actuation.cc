@@ -1,0 +1,320 @@
+// Actuation layer of the diagnosis: DRIVE_CMD setpoints against what the
+// encoders report. Baseline: wheels reach the commanded speed and angle at
+// once. drive_lag: the speed follows through a first-order lag; steering_rate_limit:
+// the angle moves toward the command no faster than a rate. Each is fitted on
+// the fit blocks and tested on the held-out blocks: a likelihood ratio with the
+// samples' correlation time taken out, so overfitting cannot pass the test.
+
+#include <algorithm>
+#include <cmath>
+#include <functional>
+#include <numeric>
+#include <sstream>
+
+#include "calib/core/kinematics.h"
+#include "diagnose/diagnose_internal.h"
+#include "diagnose/diagnose_model.h"
+
+namespace calib::diag {
+namespace {
+
+constexpr double kMinCommands = 20;
+constexpr double kMinGain = 0.05;  // practical floor: held-out RMS at least 5 % lower
+
+struct Series {
+  std::vector<double> t;                       // s from the first sample
+  std::vector<int64_t> utime;
+  std::vector<std::array<double, 2>> speed_cmd, steer_cmd;  // setpoint held over [t_i, t_i+1]
+  std::vector<bool> heldout;
+  std::vector<int> chunk;                      // one-second chunk index
+};
+
+// Minimises f over [lo, hi] by golden section.
+double GoldenMin(const std::function<double(double)>& f, double lo, double hi) {
+  const double g = 0.5 * (std::sqrt(5.0) - 1.0);
+  double a = lo, b = hi, c = b - g * (b - a), d = a + g * (b - a);
+  double fc = f(c), fd = f(d);
+  for (int i = 0; i < 40; ++i) {
+    if (fc < fd) b = d, d = c, fd = fc, c = b - g * (b - a), fc = f(c);
+    else a = c, c = d, fc = fd, d = a + g * (b - a), fd = f(d);
+  }
+  return 0.5 * (a + b);
+}
+
+// One actuation effect: predicts the measured signal for a parameter value.
+struct Layer {
+  std::string name, key, component, regressor_words;
+  int wheels_used = 0;
+  std::function<std::vector<std::array<double, 2>>(double)> predict;  // per sample, per wheel
+  std::vector<std::array<double, 2>> measured;
+  double null_param = 0;  // parameter of the baseline (no effect)
+  double lo = 0, hi = 1;  // search range (in the search variable)
+  bool log_search = false;
+  double plausible_sigma = 0.5;
+  std::vector<double> regressor;  // per sample, for the signature
+  std::vector<bool> use;          // wheels used
+};
+
+double Sse(const Layer& L, const std::vector<std::array<double, 2>>& pred, const Series& s,
+           const std::function<bool(std::size_t)>& keep) {
+  double sum = 0;
+  for (std::size_t i = 0; i < pred.size(); ++i) {
+    if (!keep(i)) continue;
+    for (int w = 0; w < 2; ++w)
+      if (L.use[w]) sum += std::pow(L.measured[i][w] - pred[i][w], 2);
+  }
+  return sum;
+}
+
+}  // namespace
+
+int ActuationCandidates(const RobotDescription& robot, const DiagnoseData& data) {
+  if (data.commands.size() < kMinCommands) return 0;
+  return robot.drive == DriveType::kDifferential ? 1 : 2;
+}
+
+void DiagnoseActuation(const RobotDescription& robot, const DiagnoseData& data,
+                       const DiagnoseOptions& options, double alpha_share, DiagnoseReport* report) {
+  const int m = ActuationCandidates(robot, data);
+  if (m == 0) {
+    report->notes.push_back("no DRIVE_CMD in the recording: actuation layer (drive_lag, steering_rate_limit) not tested");
+    return;
+  }
+  const Track tr = MakeTrack(robot, data.wheels);
+  const std::size_t n = tr.utime.size();
+  const auto model = MakeDriveModel(robot);
+  const int nw = tr.wheels;
+  Series s;
+  s.t.resize(n);
+  s.utime = tr.utime;
+  s.speed_cmd.assign(n, {0, 0});
+  s.steer_cmd.assign(n, {0, 0});
+  s.heldout.resize(n);
+  s.chunk.resize(n);
+  std::size_t c = 0;
+  std::array<double, 2> hold_steer{tr.steer[0][0], tr.steer[0][1]};
+  for (std::size_t i = 0; i < n; ++i) {
+    s.t[i] = (tr.utime[i] - tr.utime[0]) * 1e-6;
+    s.heldout[i] = int64_t(s.t[i] / options.block_s) % 2 == 1;
+    s.chunk[i] = int(s.t[i]);
+    while (c < data.commands.size() && data.commands[c].utime <= tr.utime[i]) ++c;
+    if (c > 0) {
+      const DriveCommand& cmd = data.commands[c - 1];
+      const bool live = cmd.mode != DriveMode::kStop && tr.utime[i] - cmd.utime <= int64_t(cmd.timeout_s * 1e6);
+      if (live) {
+        const WheelSetpoint sp = cmd.mode == DriveMode::kTwist ? model->Inverse(cmd.twist) : cmd.wheels;
+        for (int w = 0; w < nw; ++w) {
+          s.speed_cmd[i][w] = sp.speed.at(w);
+          if (tr.steered[w] && w < int(sp.steer.size())) hold_steer[w] = sp.steer[w];
+        }
+      }
+    }
+    s.steer_cmd[i] = hold_steer;
+  }
+  const int k = tr.smooth_k;
+
+  std::vector<Layer> layers;
+  {  // drive_lag
+    Layer L;
+    L.name = "drive_lag", L.key = "tau_s", L.component = "speed";
+    L.regressor_words = "commanded wheel acceleration (rad/s^2)";
+    L.use = {true, nw > 1};
+    L.measured = tr.speed;
+    L.null_param = 0, L.lo = 0, L.hi = 1.0;
+    L.predict = [&s, &tr, k, n, nw](double tau) {
+      // Exact response to the held setpoint; the prediction is smoothed like the measurement.
+      std::vector<std::array<double, 2>> pos(n, {0, 0}), out(n, {0, 0});
+      std::array<double, 2> y{s.speed_cmd[0][0], s.speed_cmd[0][1]};
+      for (std::size_t i = 0; i + 1 < n; ++i) {
+        const double dt = s.t[i + 1] - s.t[i];
+        const double e = tau > 1e-6 ? std::exp(-dt / tau) : 0.0;
+        for (int w = 0; w < nw; ++w) {
+          const double u = s.speed_cmd[i][w];
+          pos[i + 1][w] = pos[i][w] + u * dt + (y[w] - u) * tau * (1 - e);
+          y[w] = u + (y[w] - u) * e;
+        }
+      }
+      for (std::size_t i = 0; i < n; ++i) {
+        const std::size_t lo = i >= std::size_t(k) ? i - k : 0, hi = std::min(n - 1, i + k);
+        for (int w = 0; w < nw; ++w) out[i][w] = (pos[hi][w] - pos[lo][w]) / (s.t[hi] - s.t[lo]);
+      }
+      (void)tr;
+      return out;
+    };
+    L.regressor.resize(n);
+    for (std::size_t i = 0; i < n; ++i) {
+      const std::size_t lo = i >= 5 ? i - 5 : 0, hi = std::min(n - 1, i + 5);
+      L.regressor[i] = (s.speed_cmd[hi][0] - s.speed_cmd[lo][0]) / std::max(s.t[hi] - s.t[lo], 1e-3);
+    }
+    layers.push_back(std::move(L));
+  }
+  if (m > 1) {  // steering_rate_limit, searched in log(rate)
+    Layer L;
+    L.name = "steering_rate_limit", L.key = "rate_rad_s", L.component = "steer";
+    L.regressor_words = "commanded steering rate (rad/s)";
+    L.use = {tr.steered[0], nw > 1 && tr.steered[1]};
+    L.measured = tr.steer;
+    L.null_param = std::log(1e6), L.lo = std::log(0.02), L.hi = std::log(50.0);
+    L.log_search = true;
+    L.plausible_sigma = 1.0;  // in log(rate)
+    L.predict = [&s, n, nw, &tr](double log_rate) {
+      const double rate = std::exp(log_rate);
+      std::vector<std::array<double, 2>> out(n, {0, 0});
+      std::array<double, 2> r{tr.steer[0][0], tr.steer[0][1]};
+      out[0] = r;
+      for (std::size_t i = 0; i + 1 < n; ++i) {
+        const double dt = s.t[i + 1] - s.t[i];
+        for (int w = 0; w < nw; ++w) r[w] += std::clamp(s.steer_cmd[i][w] - r[w], -rate * dt, rate * dt);
+        out[i + 1] = r;
+      }
+      return out;
+    };
+    L.regressor.resize(n);
+    for (std::size_t i = 0; i < n; ++i) {
+      const std::size_t lo = i >= 5 ? i - 5 : 0, hi = std::min(n - 1, i + 5);
+      L.regressor[i] = (s.steer_cmd[hi][0] - s.steer_cmd[lo][0]) / std::max(s.t[hi] - s.t[lo], 1e-3);
+    }
+    layers.push_back(std::move(L));
+  }
+
+  for (Layer& L : layers) {
+    auto fit_on = [&](const std::function<bool(std::size_t)>& keep) {
+      return GoldenMin([&](double x) { return Sse(L, L.predict(x), s, keep); }, L.lo, L.hi);
+    };
+    const double est = fit_on([&](std::size_t i) { return !s.heldout[i]; });
+    const auto before = L.predict(L.null_param), after = L.predict(est);
+    // Test on the held-out blocks: the drop of the squared error in units of the noise left
+    // after the effect, with the samples counted as independent only once per correlation time.
+    std::vector<double> rb, ra;
+    for (std::size_t i = 0; i < n; ++i) {
+      if (!s.heldout[i]) continue;
+      for (int w = 0; w < 2; ++w) {
+        if (!L.use[w]) continue;
+        rb.push_back(L.measured[i][w] - before[i][w]);
+        ra.push_back(L.measured[i][w] - after[i][w]);
+      }
+    }
+    auto rms = [](const std::vector<double>& v) {
+      double q = 0;
+      for (double x : v) q += x * x;
+      return v.empty() ? 0.0 : std::sqrt(q / v.size());
+    };
+    const double rms_b = rms(rb), rms_a = rms(ra);
+    double tau_int = 1.0;  // integrated autocorrelation time of the remaining residual, samples
+    {
+      const double var = rms_a * rms_a;
+      for (std::size_t lag = 1; lag < 400 && lag < ra.size() && var > 0; ++lag) {
+        double acc = 0;
+        for (std::size_t i = lag; i < ra.size(); ++i) acc += ra[i] * ra[i - lag];
+        const double rho = acc / (ra.size() - lag) / var;
+        if (rho < 0.05) break;
+        tau_int += 2 * rho;
+      }
+    }
+    const double sigma2 = std::max(rms_a * rms_a, 1e-300);
+    const double lr = ra.empty() ? 0.0 : (rms_b * rms_b - rms_a * rms_a) * ra.size() / sigma2 / tau_int;
+    const double t = lr > 0 ? std::sqrt(lr) : 0.0;
+    const double p = ChiSquareUpperTail(lr, 1);
+    const double gain = rms_b > 0 ? 1 - rms_a / rms_b : 0.0;
+    // Standard error from the curvature of the fit blocks' squared error (Gauss-Newton),
+    // inflated by the correlation time.
+    double sigma = INFINITY;
+    {
+      auto keep = [&](std::size_t i) { return !s.heldout[i]; };
+      const double h = L.log_search ? 0.05 : 0.005;
+      const double f0 = Sse(L, L.predict(est), s, keep);
+      const double fp = Sse(L, L.predict(est + h), s, keep), fm = Sse(L, L.predict(std::max(est - h, L.lo)), s, keep);
+      const double curvature = (fp - 2 * f0 + fm) / (h * h);  // = 2 sum J^2
+      if (curvature > 0) sigma = std::sqrt(2.0 * sigma2 * tau_int / curvature);
+    }
+    const double value = L.log_search ? std::exp(est) : est;
+    const double value_std = L.log_search ? value * sigma : sigma;
+    CandidateOutcome o;
+    o.name = L.name, o.layer = "actuation";
+    o.estimate = {value, value_std};
+    o.p_value = p;
+    o.p_adjusted = std::min(1.0, p * m * options.alpha / std::max(alpha_share, 1e-300));
+    o.detectable = (NormalUpper(alpha_share / m) + NormalUpper(0.2)) * value_std;
+    const bool at_null_edge = L.log_search && est > L.hi - 0.5;  // no limit inside the searched range
+    const bool significant = p * m < alpha_share && gain > kMinGain && !at_null_edge;
+    if (significant) {
+      o.status = "found";
+    } else if (!(sigma < L.plausible_sigma) || at_null_edge) {
+      o.status = "not_identifiable";
+      if (L.log_search) {
+        double max_rate = 0;
+        for (double r : L.regressor) max_rate = std::max(max_rate, std::abs(r));
+        std::ostringstream note;
+        note.precision(3);
+        note << "steering was never commanded faster than " << max_rate
+             << " rad/s; a limit above that cannot show: command faster steering steps";
+        o.note = note.str();
+      } else {
+        o.note = "the commanded speed hardly changes: command speed steps";
+      }
+    } else {
+      o.status = "not_significant";
+    }
+    report->candidates.push_back(o);
+
+    DiagnoseReport::Trace trace;
+    trace.name = L.component + " " + WheelRoles(robot.drive)[L.use[0] ? 0 : 1];
+    const int w0 = L.use[0] ? 0 : 1;
+    for (std::size_t i = 0; i < n; i += 5) {
+      trace.utime.push_back(s.utime[i]);
+      trace.measured.push_back(L.measured[i][w0]);
+      trace.before.push_back(before[i][w0]);
+      trace.after.push_back(significant ? after[i][w0] : before[i][w0]);
+    }
+    report->actuation.push_back(std::move(trace));
+    if (!significant) continue;
+
+    FoundEffect fe;
+    fe.name = L.name, fe.layer = "actuation", fe.component = L.component;
+    fe.params[L.key] = {value, value_std};
+    fe.wald = t * t, fe.p_value = p, fe.p_adjusted = o.p_adjusted;
+    fe.delta_bic = 0;
+    fe.regressor = L.regressor_words;
+    // Where the effect changes the prediction by more than the noise left after it.
+    const double noise = rms_a;
+    std::vector<TimeSpan> spans;
+    std::vector<double> in_b, in_a, x, eb, ea;
+    for (std::size_t i = 0; i < n; ++i) {
+      const double diff = std::abs(after[i][w0] - before[i][w0]);
+      const bool flagged = diff > 2 * noise;
+      if (flagged) spans.push_back({s.utime[i], s.utime[std::min(i + 1, n - 1)]});
+      if (flagged && s.heldout[i]) {
+        in_b.push_back(L.measured[i][w0] - before[i][w0]);
+        in_a.push_back(L.measured[i][w0] - after[i][w0]);
+      }
+      x.push_back(L.regressor[i]);
+      eb.push_back(L.measured[i][w0] - before[i][w0]);
+      ea.push_back(L.measured[i][w0] - after[i][w0]);
+    }
+    fe.where = MergeSpans(spans, 500000);
+    fe.heldout_rms_before = rms(in_b), fe.heldout_rms_after = rms(in_a);
+    fe.heldout_rms_all_before = rms_b, fe.heldout_rms_all_after = rms_a;
+    // Signature: quantile bins of the regressor.
+    std::vector<std::size_t> order(x.size());
+    std::iota(order.begin(), order.end(), 0);
+    std::sort(order.begin(), order.end(), [&](std::size_t a, std::size_t b) { return x[a] < x[b]; });
+    const int nb = 10;
+    for (int b = 0; b < nb; ++b) {
+      SignatureBin bin;
+      double sx = 0, sb = 0, sa = 0, sa2 = 0;
+      for (std::size_t r = order.size() * b / nb; r < order.size() * (b + 1) / nb; ++r) {
+        const std::size_t i = order[r];
+        ++bin.count, sx += x[i], sb += eb[i], sa += ea[i], sa2 += ea[i] * ea[i];
+      }
+      if (bin.count < 3) continue;
+      bin.x = sx / bin.count, bin.before = sb / bin.count, bin.after = sa / bin.count;
+      bin.std_error = std::sqrt(std::max(sa2 / bin.count - bin.after * bin.after, 0.0) / bin.count);
+      fe.signature.push_back(bin);
+    }
+    fe.regime = L.name == "drive_lag" ? "while the commanded speed changes (starts, stops, speed steps)"
+                                      : "during fast steering commands";
+    report->effects.push_back(std::move(fe));
+  }
+}
+
+}  // namespace calib::diag

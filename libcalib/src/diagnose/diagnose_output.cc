@@ -1,0 +1,259 @@
+// REPORT.json, the plain-words summary, the comparison with a simulator run
+// and the simulation config that reproduces the robot.
+
+#include <cmath>
+#include <sstream>
+
+#include <nlohmann/json.hpp>
+
+#include "calib/diagnose/diagnose.h"
+
+namespace calib {
+namespace {
+
+nlohmann::json Number(double v) { return std::isfinite(v) ? nlohmann::json(v) : nlohmann::json(); }
+
+nlohmann::json Spans(const std::vector<TimeSpan>& spans) {
+  nlohmann::json j = nlohmann::json::array();
+  for (const TimeSpan& s : spans) j.push_back({{"utime_start", s.utime_start}, {"utime_end", s.utime_end}});
+  return j;
+}
+
+nlohmann::json Params(const std::map<std::string, ParamEstimate>& params) {
+  nlohmann::json j = nlohmann::json::object();
+  for (const auto& [k, v] : params) j[k] = {{"value", Number(v.value)}, {"std", Number(v.std)}};
+  return j;
+}
+
+std::string Percent(double before, double after) {
+  std::ostringstream s;
+  s.precision(3);
+  s << (before > 0 ? 100.0 * (before - after) / before : 0.0) << " %";
+  return s.str();
+}
+
+const char* Unit(const std::string& component) {
+  if (component == "yaw") return "rad";
+  if (component == "speed") return "rad/s";
+  if (component == "steer") return "rad";
+  return "m";
+}
+
+}  // namespace
+
+std::string DiagnoseReportJson(const DiagnoseReport& r) {
+  nlohmann::json j;
+  j["verdict"] = r.verdict;
+  j["drive"] = DriveTypeName(r.drive);
+  j["effects"] = nlohmann::json::array();
+  for (const FoundEffect& e : r.effects) {
+    nlohmann::json je = {{"name", e.name}, {"layer", e.layer}, {"params", Params(e.params)}};
+    if (!e.wheel.empty()) je["wheel"] = e.wheel;
+    je["evidence"] = {{"delta_bic", Number(e.delta_bic)}, {"p_value", Number(e.p_adjusted)},
+                      {"p_value_unadjusted", Number(e.p_value)}, {"wald", Number(e.wald)}};
+    je["heldout_rms_before"] = Number(e.heldout_rms_before);
+    je["heldout_rms_after"] = Number(e.heldout_rms_after);
+    je["heldout_rms_all_before"] = Number(e.heldout_rms_all_before);
+    je["heldout_rms_all_after"] = Number(e.heldout_rms_all_after);
+    je["heldout_component"] = e.component;
+    if (!e.drift_component.empty())
+      je["heldout_drift"] = {{"component", e.drift_component}, {"window_s", e.drift_window_s},
+                             {"windows", e.drift_windows}, {"rms_before", Number(e.heldout_drift_before)},
+                             {"rms_after", Number(e.heldout_drift_after)}};
+    if (!e.stretches.empty()) {
+      nlohmann::json per = nlohmann::json::array();
+      for (const HeldoutStretch& h : e.stretches)
+        per.push_back({{"utime_start", h.utime_start}, {"utime_end", h.utime_end}, {"before", Number(h.before)},
+                       {"after", Number(h.after)}});
+      je["heldout_stretch"] = {{"component", e.component}, {"stretches", e.stretches.size()},
+                               {"rms_before", Number(e.heldout_stretch_before)},
+                               {"rms_after", Number(e.heldout_stretch_after)}, {"per_stretch", per}};
+    }
+    je["heldout_measure"] = e.heldout_measure;
+    je["where"] = Spans(e.where);
+    je["regime"] = e.regime;
+    je["signature"] = {{"regressor", e.regressor}, {"component", e.signature_component}, {"bins", nlohmann::json::array()}};
+    for (const SignatureBin& b : e.signature)
+      je["signature"]["bins"].push_back({{"x", b.x}, {"before", b.before}, {"after", b.after},
+                                         {"std_error", b.std_error}, {"count", b.count}});
+    j["effects"].push_back(je);
+  }
+  j["unexplained"] = nlohmann::json::array();
+  for (const Unexplained& u : r.unexplained)
+    j["unexplained"].push_back({{"where", Spans(u.where)}, {"correlates_with", u.correlates_with},
+                                {"p_value", Number(u.p_value)}, {"component", u.component}});
+  j["indistinguishable"] = nlohmann::json::array();
+  for (const Indistinguishable& d : r.indistinguishable)
+    j["indistinguishable"].push_back({{"effects", {d.first, d.second}}, {"correlation", Number(d.correlation)},
+                                      {"separating_motion", d.motion}});
+  j["candidates"] = nlohmann::json::array();
+  for (const CandidateOutcome& c : r.candidates) {
+    nlohmann::json jc = {{"name", c.name}, {"layer", c.layer}, {"status", c.status},
+                         {"estimate", {{"value", Number(c.estimate.value)}, {"std", Number(c.estimate.std)}}},
+                         {"p_value", Number(c.p_adjusted)}, {"delta_bic", Number(c.delta_bic)},
+                         {"detectable", Number(c.detectable)}};
+    if (!c.wheel.empty()) jc["wheel"] = c.wheel;
+    for (const auto& [other, size] : c.detectable_with) jc["detectable_with"][other] = Number(size);
+    if (!c.note.empty()) jc["note"] = c.note;
+    j["candidates"].push_back(jc);
+  }
+  j["calibration"] = Params(r.calibration);
+  j["refitted"] = Params(r.refitted);
+  j["heldout"] = {{"intervals", r.heldout_intervals},
+                  {"rms_before", {r.heldout_rms_before[0], r.heldout_rms_before[1], r.heldout_rms_before[2]}},
+                  {"rms_after", {r.heldout_rms_after[0], r.heldout_rms_after[1], r.heldout_rms_after[2]}},
+                  {"chi2_per_interval_before", Number(r.heldout_chi2_before)},
+                  {"chi2_per_interval_after", Number(r.heldout_chi2_after)},
+                  {"drift", {{"windows", r.heldout_drift_after.windows},
+                             {"translation_before", Number(r.heldout_drift_before.rms_translation_m)},
+                             {"translation_after", Number(r.heldout_drift_after.rms_translation_m)},
+                             {"heading_before", Number(r.heldout_drift_before.rms_heading_rad)},
+                             {"heading_after", Number(r.heldout_drift_after.rms_heading_rad)}}}};
+  j["fit"] = {{"intervals", r.fit_intervals}, {"outliers", r.outliers}, {"variance_factor", Number(r.variance_factor)}};
+  j["notes"] = r.notes;
+  nlohmann::json iv = nlohmann::json::array();
+  for (const DiagnosedInterval& d : r.intervals) {
+    const MotionConditions& m = d.motion;
+    iv.push_back({{"utime_start", d.utime_start}, {"utime_end", d.utime_end}, {"heldout", d.heldout},
+                  {"outlier", d.outlier},
+                  {"before", {d.before[0], d.before[1], d.before[2]}},
+                  {"after", {d.after[0], d.after[1], d.after[2]}},
+                  {"sigma", {d.sigma[0], d.sigma[1], d.sigma[2]}},
+                  {"motion", {{"speed", m.speed}, {"accel", m.accel}, {"turn_rate", m.turn_rate},
+                              {"turn_accel", m.turn_accel}, {"centripetal", m.centripetal},
+                              {"steer", m.steer}, {"steer_rate", m.steer_rate},
+                              {"steer_direction", m.steer_direction}, {"route_m", m.route_m},
+                              {"x", m.x}, {"y", m.y}}}});
+  }
+  j["intervals"] = iv;
+  return j.dump(1) + "\n";
+}
+
+std::string DiagnoseSummaryText(const DiagnoseReport& r) {
+  std::ostringstream s;
+  s.precision(4);
+  s << DriveTypeName(r.drive) << " drive: " << r.fit_intervals << " intervals fitted, " << r.heldout_intervals
+    << " held out (alternating blocks), " << r.outliers << " outliers set aside.\n";
+  if (r.effects.empty()) {
+    s << "No significant unmodelled physics: the calibrated model explains the recording within its noise.\n";
+  }
+  for (const FoundEffect& e : r.effects) {
+    // The held-out measure that judges the effect is marked.
+    auto judges = [&e](const char* measure) { return e.heldout_measure == measure ? "  <- judges it\n" : "\n"; };
+    s << "\nMISSING PHYSICS: " << e.name << (e.wheel.empty() ? "" : " (wheel " + e.wheel + ")") << ", "
+      << e.layer << " layer.\n  size:";
+    for (const auto& [k, v] : e.params) s << " " << k << " = " << v.value << " +- " << v.std;
+    s << "\n  evidence: p = " << e.p_adjusted << " after the catalogue-wide correction";
+    if (e.delta_bic != 0) s << ", delta BIC " << e.delta_bic;
+    s << "\n  where: " << e.where.size() << " time spans, " << e.regime << "\n";
+    s << "  held-out " << e.component << " residual where it acts: " << e.heldout_rms_before << " -> "
+      << e.heldout_rms_after << " " << Unit(e.component) << " (" << Percent(e.heldout_rms_before, e.heldout_rms_after)
+      << " lower); over all held-out data " << e.heldout_rms_all_before << " -> " << e.heldout_rms_all_after
+      << " (" << Percent(e.heldout_rms_all_before, e.heldout_rms_all_after) << ")" << judges("per_interval");
+    if (!e.stretches.empty()) {
+      s << "  held-out " << e.component << " error chained over the stretch of each held-out block where it acts most ("
+        << e.stretches.size() << " stretches): " << e.heldout_stretch_before << " -> " << e.heldout_stretch_after << " "
+        << Unit(e.component) << " (" << Percent(e.heldout_stretch_before, e.heldout_stretch_after) << " lower)"
+        << judges("stretch");
+    }
+    if (!e.drift_component.empty()) {
+      const char* unit = e.drift_component == "heading" ? "rad" : "m";
+      s << "  held-out dead-reckoning " << e.drift_component << " error over " << e.drift_window_s << " s ("
+        << e.drift_windows << " windows): " << e.heldout_drift_before << " -> " << e.heldout_drift_after << " "
+        << unit << " (" << Percent(e.heldout_drift_before, e.heldout_drift_after) << " lower)" << judges("drift");
+    }
+  }
+  for (const Indistinguishable& d : r.indistinguishable)
+    s << "\nINDISTINGUISHABLE: " << d.first << " and " << d.second << " (correlation " << d.correlation
+      << "); to tell them apart drive " << d.motion << ".\n";
+  bool header = false;
+  for (const CandidateOutcome& c : r.candidates) {
+    if (c.status != "not_identifiable") continue;
+    if (!header) s << "\nNot identifiable with this recording (neither found nor ruled out):\n";
+    header = true;
+    s << "  " << c.name << (c.wheel.empty() ? "" : " (" + c.wheel + ")") << ": " << c.note << "\n";
+  }
+  for (const Unexplained& u : r.unexplained)
+    s << "\nUNEXPLAINED residual structure (no catalogued effect): correlates with " << u.correlates_with
+      << ", in " << u.where.size() << " spans.\n";
+  s << "\nOverall held-out residual RMS x, y, yaw: " << r.heldout_rms_before[0] << ", " << r.heldout_rms_before[1]
+    << ", " << r.heldout_rms_before[2] << " -> " << r.heldout_rms_after[0] << ", " << r.heldout_rms_after[1] << ", "
+    << r.heldout_rms_after[2] << " (chi2 per interval " << r.heldout_chi2_before << " -> " << r.heldout_chi2_after
+    << ")\n";
+  const OdometryError& db = r.heldout_drift_before;
+  const OdometryError& da = r.heldout_drift_after;
+  if (da.windows > 0)
+    s << "Held-out dead reckoning over " << da.windows << " windows: translation " << db.rms_translation_m << " -> "
+      << da.rms_translation_m << " m, heading " << db.rms_heading_rad << " -> " << da.rms_heading_rad << " rad\n";
+  for (const std::string& n : r.notes) s << "note: " << n << "\n";
+  return s.str();
+}
+
+std::string CompareWithSimJson(const DiagnoseReport& real, const DiagnoseReport& sim) {
+  nlohmann::json j;
+  j["params"] = nlohmann::json::object();
+  for (const auto& [k, v] : real.refitted) {
+    const auto it = sim.refitted.find(k);
+    if (it == sim.refitted.end()) continue;
+    const double sd = std::hypot(v.std, it->second.std);
+    j["params"][k] = {{"real", Number(v.value)}, {"sim", Number(it->second.value)},
+                      {"difference", Number(v.value - it->second.value)},
+                      {"z", Number(sd > 0 ? (v.value - it->second.value) / sd : 0.0)}};
+  }
+  // The effects one recording shows and the other does not are what the simulator lacks (or adds).
+  j["effects"] = nlohmann::json::array();
+  auto find = [](const DiagnoseReport& r, const std::string& name, const std::string& wheel) -> const FoundEffect* {
+    for (const FoundEffect& e : r.effects)
+      if (e.name == name && e.wheel == wheel) return &e;
+    return nullptr;
+  };
+  for (const FoundEffect& e : real.effects) {
+    const FoundEffect* other = find(sim, e.name, e.wheel);
+    nlohmann::json je = {{"name", e.name}, {"real", Params(e.params)},
+                         {"sim", other ? Params(other->params) : nlohmann::json()}};
+    je["verdict"] = other ? "in both" : "missing from the simulator";
+    if (!e.wheel.empty()) je["wheel"] = e.wheel;
+    j["effects"].push_back(je);
+  }
+  for (const FoundEffect& e : sim.effects) {
+    if (find(real, e.name, e.wheel)) continue;
+    j["effects"].push_back({{"name", e.name}, {"real", nullptr}, {"sim", Params(e.params)},
+                            {"verdict", "in the simulator only"}});
+  }
+  j["heldout_rms_real"] = {real.heldout_rms_after[0], real.heldout_rms_after[1], real.heldout_rms_after[2]};
+  j["heldout_rms_sim"] = {sim.heldout_rms_after[0], sim.heldout_rms_after[1], sim.heldout_rms_after[2]};
+  return j.dump(1);
+}
+
+std::string SimConfigYaml(const DiagnoseReport& r, const std::string& robot_path) {
+  std::ostringstream s;
+  s.precision(10);
+  s << "# Written by agvcal diagnose: the calibration and the effects found, so that the\n"
+       "# simulator reproduces the recorded robot.\n";
+  s << "robot: " << robot_path << "\ntruth:\n  params: {";
+  bool first = true;
+  for (const std::string& name : r.param_names) {
+    s << (first ? "" : ", ") << name << ": " << r.refitted.at(name).value;
+    first = false;
+  }
+  s << "}\n";
+  const std::string mount = r.source == MotionSource::kPose ? "pose" : "lidar2d";
+  s << "  " << mount << ": {x: " << r.refitted.at(mount + ".x").value << ", y: " << r.refitted.at(mount + ".y").value
+    << ", yaw: " << r.refitted.at(mount + ".yaw").value << "}\n";
+  std::ostringstream fx;
+  fx.precision(10);
+  for (const FoundEffect& e : r.effects) {
+    fx << "  " << e.name << ": {";
+    bool f = true;
+    for (const auto& [k, v] : e.params) {
+      fx << (f ? "" : ", ") << k << ": " << v.value;
+      f = false;
+    }
+    if (!e.wheel.empty()) fx << ", wheel: " << e.wheel;
+    fx << "}\n";
+  }
+  if (!fx.str().empty()) s << "effects:\n" << fx.str();
+  return s.str();
+}
+
+}  // namespace calib

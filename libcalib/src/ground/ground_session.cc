@@ -1,0 +1,267 @@
+#include "calib/ground/ground_session.h"
+
+#include <cmath>
+#include <cstdio>
+#include <cstring>
+#include <sstream>
+
+#include <nlohmann/json.hpp>
+
+#include "calib/core/errors.h"
+#include "calib/io/cloud_file.h"
+#include "calib/io/messages.h"
+#include "calib/io/recording.h"
+
+namespace calib {
+
+namespace {
+
+constexpr double kDeg = 3.14159265358979323846 / 180.0;
+
+const Mount3d& RequireLidar3d(const RobotDescription& robot) {
+  if (!robot.lidar3d)
+    throw InputError(robot.source_file, "lidar3d",
+                     "the robot file has no 3D lidar (lidar3d: {channel: CLOUD, z: ..., ...})");
+  return *robot.lidar3d;
+}
+
+std::string Format(const char* format, double value) {
+  char buffer[64];
+  std::snprintf(buffer, sizeof buffer, format, value);
+  return buffer;
+}
+
+}  // namespace
+
+GroundSession::GroundSession(const RobotDescription& robot, GroundOptions options)
+    : calibrator_(RequireLidar3d(robot), std::move(options)),
+      cloud_channel_(robot.lidar3d->channel) {
+  if (robot.lidar3d->rotation) {
+    angle_channel_ = robot.lidar3d->rotation->channel;
+    max_age_s_ = robot.lidar3d->rotation->max_age_s;
+  }
+}
+
+void GroundSession::OnMountAngle(const agvcal::mount_angle_t& angle) {
+  angles_.emplace_back(angle.utime, angle.angle);
+  // Keep what a late cloud could still need: the last 5 s (robot clock).
+  const int64_t oldest = angle.utime - 5000000;
+  while (angles_.size() > 1 && (angles_.front().first < oldest || angles_.size() > 10000))
+    angles_.pop_front();
+}
+
+const FrameFit* GroundSession::OnCloud(const agvcal::point_cloud_t& cloud) {
+  ++clouds_;
+  last_utime_ = cloud.utime;
+  double angle = 0.0;
+  if (!angle_channel_.empty()) {
+    const std::pair<int64_t, double>* best = nullptr;
+    for (const auto& a : angles_)
+      if (a.first <= cloud.utime && (!best || a.first >= best->first)) best = &a;
+    if (!best || cloud.utime - best->first > static_cast<int64_t>(std::llround(max_age_s_ * 1e6))) {
+      last_sector_ = -1;
+      calibrator_.SkipFrame("no mount angle on " + angle_channel_ + " within " +
+                            Format("%g", max_age_s_) + " s before the cloud");
+      return nullptr;
+    }
+    angle = best->second;
+    last_angle_ = angle;
+    last_sector_ = calibrator_.SectorOf(angle);
+  }
+  std::vector<float> xyz;
+  const size_t n = std::min(cloud.xyz.size(), static_cast<size_t>(std::max(cloud.npoints, 0)));
+  xyz.reserve(3 * n);
+  for (size_t i = 0; i < n; ++i) {
+    const auto& p = cloud.xyz[i];
+    if (p.size() < 3) continue;
+    xyz.insert(xyz.end(), {p[0], p[1], p[2]});
+  }
+  return &calibrator_.AddFrame(xyz.data(), xyz.size() / 3, angle);
+}
+
+bool GroundSession::OnMessage(const std::string& channel, const void* data, int size,
+                              const std::string& origin, const std::string& place) {
+  if (channel == cloud_channel_) {
+    agvcal::point_cloud_t cloud;
+    if (!Decode(data, size, &cloud))
+      throw InputError(origin, place + " (" + channel + ")", "does not decode as point_cloud_t");
+    OnCloud(cloud);
+    return true;
+  }
+  if (!angle_channel_.empty() && channel == angle_channel_) {
+    agvcal::mount_angle_t angle;
+    if (!Decode(data, size, &angle))
+      throw InputError(origin, place + " (" + channel + ")", "does not decode as mount_angle_t");
+    OnMountAngle(angle);
+    return true;
+  }
+  return false;
+}
+
+agvcal::ground_estimate_t GroundSession::EstimateMessage() const {
+  agvcal::ground_estimate_t msg{};
+  msg.utime = last_utime_;
+  msg.frames_seen = calibrator_.frames_seen();
+  msg.sector = angle_channel_.empty() ? -1 : last_sector_;
+  msg.angle = angle_channel_.empty() ? 0.0 : last_angle_;
+  msg.num_sectors = calibrator_.num_sectors();
+  for (int s = 0; s < calibrator_.num_sectors(); ++s) {
+    try {
+      calibrator_.Estimate(s);
+      ++msg.sectors_done;
+    } catch (const UnobservableError&) {
+    }
+  }
+  try {
+    if (!angle_channel_.empty() && last_sector_ < 0) {
+      msg.status = "waiting: no mount angle for the newest cloud";
+      return msg;
+    }
+    const MountEstimate e = calibrator_.Estimate(angle_channel_.empty() ? -1 : last_sector_);
+    msg.status = "ok";
+    msg.frames = e.frames;
+    msg.inliers = e.inliers;
+    msg.z = e.value.z, msg.pitch = e.value.pitch, msg.roll = e.value.roll;
+    msg.z_std = e.std.z, msg.pitch_std = e.std.pitch, msg.roll_std = e.std.roll;
+  } catch (const UnobservableError& e) {
+    msg.status = std::string("refused: ") + e.what();
+  }
+  return msg;
+}
+
+agvcal::point_cloud_t CloudMessage(const std::vector<float>& xyz, int64_t utime) {
+  agvcal::point_cloud_t msg{};
+  msg.utime = utime;
+  msg.npoints = static_cast<int32_t>(xyz.size() / 3);
+  msg.xyz.reserve(xyz.size() / 3);
+  for (size_t i = 0; i + 2 < xyz.size(); i += 3) msg.xyz.push_back({xyz[i], xyz[i + 1], xyz[i + 2]});
+  return msg;
+}
+
+GroundResult CalibrateGroundFile(const RobotDescription& robot, const GroundOptions& options,
+                                 const std::string& path, bool with_grid, GroundInput* input) {
+  GroundInput info;
+  info.path = path;
+  GroundSession session(robot, options);
+  if (IsCloudFileName(path)) {
+    if (robot.lidar3d->rotation)
+      throw InputError(path, "", "a cloud file carries no mount angle, but the robot file's lidar3d "
+                                 "rotates (lidar3d.rotation): calibrate from a recording");
+    const CloudFileData data = ReadCloudFile(path);
+    info.kind = data.format;
+    info.clouds = 1;
+    info.points = data.xyz.size() / 3;
+    GroundCalibrator calibrator(*robot.lidar3d, options);
+    calibrator.AddFrame(data.xyz.data(), data.xyz.size() / 3);
+    if (input) *input = info;
+    return calibrator.Result(with_grid);
+  }
+  info.kind = "log";
+  LogReader reader(path);
+  LogEvent event;
+  while (reader.Next(&event)) {
+    session.OnMessage(event.channel, event.data.data(), static_cast<int>(event.data.size()), path,
+                      "event " + std::to_string(event.event_number) + " at byte " +
+                          std::to_string(event.offset));
+  }
+  info.clouds = session.clouds();
+  if (input) *input = info;
+  if (session.clouds() == 0)
+    throw InputError(path, "", "no messages on channel " + session.cloud_channel() +
+                                   " (the robot file's lidar3d.channel)");
+  return session.calibrator().Result(with_grid);
+}
+
+std::string GroundResultJson(const GroundResult& result, const GroundInput& input) {
+  using nlohmann::json;
+  auto estimate = [](const MountEstimate& e) {
+    return json{{"z", {{"value", e.value.z}, {"std", e.std.z}}},
+                {"pitch", {{"value", e.value.pitch}, {"std", e.std.pitch}}},
+                {"roll", {{"value", e.value.roll}, {"std", e.std.roll}}}};
+  };
+  json out;
+  out["lidar3d"] = estimate(result.lidar3d);
+  out["frames"] = result.lidar3d.frames;
+  out["inliers"] = result.lidar3d.inliers;
+  // Extra keys (docs/ground.md).
+  out["frames_seen"] = result.frames_seen;
+  out["frames_unusable"] = result.frames_unusable;
+  out["frames_tilted"] = result.lidar3d.frames_tilted;
+  out["floor_rms_m"] = result.lidar3d.rms_m;
+  out["birge_ratio"] = result.lidar3d.birge_ratio;
+  if (result.grid) {
+    const GridEstimate& g = *result.grid;
+    out["grid"] = {{"z", g.pose.z},
+                   {"pitch", g.pose.pitch},
+                   {"roll", g.pose.roll},
+                   {"height_error_m", g.height_error_m},
+                   {"accepted", g.accepted},
+                   {"rounds", g.rounds},
+                   {"step", {{"z", g.step.z}, {"pitch", g.step.pitch}, {"roll", g.step.roll}}},
+                   {"candidates", g.candidates_scored},
+                   {"points", g.points}};
+  }
+  if (!result.sectors.empty()) {
+    json sectors = json::array();
+    for (const SectorEstimate& s : result.sectors) {
+      json entry = estimate(s.estimate);
+      entry["index"] = s.index;
+      entry["angle_min"] = s.angle_min;
+      entry["angle_max"] = s.angle_max;
+      entry["angle_mean"] = s.angle_mean;
+      entry["frames"] = s.estimate.frames;
+      entry["inliers"] = s.estimate.inliers;
+      sectors.push_back(entry);
+    }
+    out["sectors"] = sectors;
+  }
+  out["source"] = {{"path", input.path}, {"kind", input.kind}, {"clouds", input.clouds}};
+  return out.dump(2) + "\n";
+}
+
+std::string GroundResultText(const GroundResult& result, const GroundInput& input) {
+  std::ostringstream out;
+  const MountEstimate& e = result.lidar3d;
+  out << "3D lidar from " << input.kind << " " << input.path << ": " << result.frames_seen
+      << " frames, " << result.frames_unusable << " unusable";
+  if (!result.sectors.empty()) {
+    int home = 0;
+    for (const SectorEstimate& s : result.sectors)
+      if (s.angle_min <= 0.0 && 0.0 < s.angle_max) home = s.index;
+    out << "; " << result.sectors.size() << " sectors, below: sector " << home << " (holding angle 0)";
+  }
+  out << "; " << e.frames << " frames used, " << e.frames_tilted << " tilted, floor inliers "
+      << Format("%.1f", 100 * e.inliers) << " %, floor RMS " << Format("%.1f", 1000 * e.rms_m) << " mm\n";
+  out << "          robust fit (1 sigma)";
+  if (result.grid)
+    out << "          grid search (" << (result.grid->accepted ? "accepted" : "NOT accepted") << ", "
+        << result.grid->rounds << " rounds, height error " << Format("%.1f", 1000 * result.grid->height_error_m)
+        << " mm)";
+  out << "\n";
+  auto row = [&](const char* name, double value, double sigma, double grid, double step, double scale,
+                 const char* unit) {
+    out << "  " << name << Format("%10.5f", value * scale) << " +- " << Format("%-9.2g", sigma * scale) << unit;
+    if (result.grid)
+      out << "   " << Format("%10.5f", grid * scale) << " " << unit << " (step " << Format("%.2g", step * scale) << ")";
+    out << "\n";
+  };
+  const GridEstimate g = result.grid.value_or(GridEstimate{});
+  row("z    ", e.value.z, e.std.z, g.pose.z, g.step.z, 1.0, "m  ");
+  row("pitch", e.value.pitch, e.std.pitch, g.pose.pitch, g.step.pitch, 1 / kDeg, "deg");
+  row("roll ", e.value.roll, e.std.roll, g.pose.roll, g.step.roll, 1 / kDeg, "deg");
+  if (e.birge_ratio > 1.0)
+    out << "  (frames scatter " << Format("%.2f", e.birge_ratio)
+        << " x their own sigmas; sigmas inflated by that)\n";
+  if (!result.sectors.empty()) {
+    out << "per sector: index   from deg    to deg  mean deg  frames       z m   pitch deg    roll deg\n";
+    for (const SectorEstimate& s : result.sectors)
+      out << "            " << Format("%5.0f", s.index) << Format("%11.2f", s.angle_min / kDeg)
+          << Format("%10.2f", s.angle_max / kDeg) << Format("%10.2f", s.angle_mean / kDeg)
+          << Format("%8.0f", s.estimate.frames) << Format("%10.5f", s.estimate.value.z)
+          << Format("%12.5f", s.estimate.value.pitch / kDeg) << Format("%12.5f", s.estimate.value.roll / kDeg)
+          << "\n";
+  }
+  return out.str();
+}
+
+}  // namespace calib

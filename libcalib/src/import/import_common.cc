@@ -1,0 +1,107 @@
+#include "import/import_common.h"
+
+#include <algorithm>
+
+#include "calib/core/errors.h"
+#include "calib/core/wheel_track.h"
+#include "calib/io/messages.h"
+
+namespace calib::import_internal {
+
+void EventBuffer::Add(Stream stream, const std::string& channel, int64_t utime,
+                      std::vector<uint8_t> data) {
+  events_.push_back({utime, stream, channel, std::move(data)});
+}
+
+void EventBuffer::Publish(MessageSink* sink, ImportSummary* summary) {
+  std::stable_sort(events_.begin(), events_.end(), [](const Event& a, const Event& b) {
+    return a.utime != b.utime ? a.utime < b.utime : a.stream < b.stream;
+  });
+  for (const Event& e : events_) {
+    sink->Publish(e.channel, e.utime, e.data);
+    ++summary->messages[e.channel];
+  }
+  if (!events_.empty()) {
+    summary->first_utime = events_.front().utime;
+    summary->last_utime = events_.back().utime;
+  }
+  events_.clear();
+}
+
+bool StampOrder::Accept(const TextReader& reader, int64_t utime) {
+  if (any_ && utime < last_) {
+    reader.Fail(what_ + " stamp " + std::to_string(utime) + " us goes back from " +
+                std::to_string(last_) + " us on an earlier line (records out of time order)");
+  }
+  if (any_ && utime == last_) {
+    ++duplicates;
+    return false;
+  }
+  any_ = true;
+  last_ = utime;
+  return true;
+}
+
+agvcal::laser_scan_t MakeScan(int64_t utime, double angle_min, double angle_increment,
+                              double range_min, double range_max, std::vector<float> ranges) {
+  agvcal::laser_scan_t scan{};
+  scan.utime = utime;
+  scan.angle_min = static_cast<float>(angle_min);
+  scan.angle_increment = static_cast<float>(angle_increment);
+  scan.time_increment = 0.0f;  // none of the datasets reports per-beam timing
+  scan.scan_time = 0.0f;
+  scan.range_min = static_cast<float>(range_min);
+  scan.range_max = static_cast<float>(range_max);
+  scan.nranges = static_cast<int32_t>(ranges.size());
+  scan.ranges = std::move(ranges);
+  scan.nintensities = 0;
+  return scan;
+}
+
+void SetScanTimes(std::vector<agvcal::laser_scan_t>* scans, double period) {
+  if (period <= 0.0 && scans->size() >= 2) {
+    std::vector<int64_t> gaps;
+    for (std::size_t i = 1; i < scans->size(); ++i)
+      gaps.push_back((*scans)[i].utime - (*scans)[i - 1].utime);
+    std::nth_element(gaps.begin(), gaps.begin() + gaps.size() / 2, gaps.end());
+    period = gaps[gaps.size() / 2] * 1e-6;
+  }
+  for (auto& scan : *scans) scan.scan_time = static_cast<float>(std::max(period, 0.0));
+}
+
+void RequireDrive(const RobotDescription& robot, DriveType drive, const std::string& format) {
+  if (robot.drive != drive) {
+    throw InputError(robot.source_file, "drive",
+                     format + " data import as a " + DriveTypeName(drive) +
+                         " drive, but the robot file describes a " + DriveTypeName(robot.drive) +
+                         " drive");
+  }
+}
+
+std::string ScanChannel(const RobotDescription& robot) {
+  return robot.lidar2d ? robot.lidar2d->channel : kScanChannel;
+}
+
+std::string PoseChannel(const RobotDescription& robot) {
+  return robot.pose ? robot.pose->channel : kPoseChannel;
+}
+
+std::string FieldName(std::size_t index, const std::string& what) {
+  return "field " + std::to_string(index + 1) + " (" + what + ")";
+}
+
+std::vector<uint8_t> DifferentialTicks::Message(int64_t utime, int64_t left, int64_t right,
+                                                const RobotDescription& robot) {
+  if (first_) {
+    left0_ = left;
+    right0_ = right;
+    first_ = false;
+  }
+  WheelSample sample;
+  sample.utime = utime;
+  sample.position = {double(left - left0_) * rad_per_tick_, double(right - right0_) * rad_per_tick_};
+  sample.steer = {0.0, 0.0};
+  return Encode(WheelStateMessage(sample, robot));
+}
+
+}  // namespace calib::import_internal

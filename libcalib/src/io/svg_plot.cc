@@ -1,0 +1,124 @@
+#include "io/svg_plot.h"
+
+#include <algorithm>
+#include <cmath>
+#include <cstdio>
+#include <sstream>
+
+namespace calib {
+namespace {
+
+std::string Esc(const std::string& s) {
+  std::string out;
+  for (char c : s) {
+    if (c == '<') out += "&lt;";
+    else if (c == '>') out += "&gt;";
+    else if (c == '&') out += "&amp;";
+    else out += c;
+  }
+  return out;
+}
+
+std::string Num(double v) {
+  char buf[32];
+  std::snprintf(buf, sizeof buf, "%.4g", v);
+  return buf;
+}
+
+// About five round tick values over [lo, hi].
+std::vector<double> Ticks(double lo, double hi) {
+  const double span = hi - lo;
+  if (!(span > 0)) return {lo};
+  const double raw = span / 5, mag = std::pow(10, std::floor(std::log10(raw)));
+  const double step = raw / mag < 2 ? 2 * mag : raw / mag < 5 ? 5 * mag : 10 * mag;
+  std::vector<double> t;
+  for (double v = std::ceil(lo / step) * step; v <= hi + 1e-9 * span; v += step) t.push_back(std::abs(v) < 1e-12 * step ? 0 : v);
+  return t;
+}
+
+}  // namespace
+
+SvgPlot::Panel& SvgPlot::AddPanel(const std::string& title, const std::string& x_label, const std::string& y_label) {
+  panels_.push_back({title, x_label, y_label, {}, {}, false});
+  return panels_.back();
+}
+
+std::string SvgPlot::Render() const {
+  const int top = 40, left = 80, right = 170, bottom = 45;
+  const int height = top + int(panels_.size()) * (panel_height_ + bottom) + 10;
+  std::ostringstream s;
+  s << "<svg xmlns=\"http://www.w3.org/2000/svg\" width=\"" << width_ << "\" height=\"" << height
+    << "\" font-family=\"sans-serif\" font-size=\"12\">\n<rect width=\"100%\" height=\"100%\" fill=\"white\"/>\n"
+    << "<text x=\"" << width_ / 2 << "\" y=\"22\" text-anchor=\"middle\" font-size=\"15\">" << Esc(title_) << "</text>\n";
+  for (std::size_t p = 0; p < panels_.size(); ++p) {
+    const Panel& P = panels_[p];
+    const double y0 = top + p * (panel_height_ + bottom), w = width_ - left - right, h = panel_height_ - 20;
+    double xmin = INFINITY, xmax = -INFINITY, ymin = INFINITY, ymax = -INFINITY;
+    for (const Series& se : P.series) {
+      for (std::size_t i = 0; i < se.x.size(); ++i) {
+        if (!std::isfinite(se.x[i]) || !std::isfinite(se.y[i])) continue;
+        const double e = i < se.error.size() ? se.error[i] : 0.0;
+        xmin = std::min(xmin, se.x[i]), xmax = std::max(xmax, se.x[i]);
+        ymin = std::min(ymin, se.y[i] - e), ymax = std::max(ymax, se.y[i] + e);
+      }
+    }
+    if (!std::isfinite(xmin)) xmin = 0, xmax = 1, ymin = 0, ymax = 1;
+    if (xmax - xmin < 1e-12) xmin -= 0.5, xmax += 0.5;
+    if (ymax - ymin < 1e-15) ymin -= 0.5 * std::max(std::abs(ymin), 1e-9), ymax += 0.5 * std::max(std::abs(ymax), 1e-9);
+    const double pad = 0.05 * (ymax - ymin);
+    ymin -= pad, ymax += pad;
+    if (P.equal_axes) {  // same metres per pixel on both axes
+      const double sx = (xmax - xmin) / w, sy = (ymax - ymin) / h, sc = std::max(sx, sy);
+      const double cx = 0.5 * (xmin + xmax), cy = 0.5 * (ymin + ymax);
+      xmin = cx - sc * w / 2, xmax = cx + sc * w / 2, ymin = cy - sc * h / 2, ymax = cy + sc * h / 2;
+    }
+    auto X = [&](double x) { return left + (x - xmin) / (xmax - xmin) * w; };
+    auto Y = [&](double y) { return y0 + h - (y - ymin) / (ymax - ymin) * h; };
+    s << "<text x=\"" << left << "\" y=\"" << y0 - 6 << "\" font-size=\"13\">" << Esc(P.title) << "</text>\n";
+    for (const auto& [a, b] : P.spans) {
+      const double xa = X(std::max(a, xmin)), xb = X(std::min(b, xmax));
+      if (xb > xa) s << "<rect x=\"" << xa << "\" y=\"" << y0 << "\" width=\"" << std::max(xb - xa, 1.0) << "\" height=\"" << h
+                     << "\" fill=\"#f6c3c3\" opacity=\"0.6\"/>\n";
+    }
+    s << "<rect x=\"" << left << "\" y=\"" << y0 << "\" width=\"" << w << "\" height=\"" << h
+      << "\" fill=\"none\" stroke=\"#444\"/>\n";
+    for (double t : Ticks(xmin, xmax))
+      s << "<line x1=\"" << X(t) << "\" x2=\"" << X(t) << "\" y1=\"" << y0 + h << "\" y2=\"" << y0 + h + 4
+        << "\" stroke=\"#444\"/><text x=\"" << X(t) << "\" y=\"" << y0 + h + 16 << "\" text-anchor=\"middle\">" << Num(t) << "</text>\n";
+    for (double t : Ticks(ymin, ymax))
+      s << "<line x1=\"" << left - 4 << "\" x2=\"" << left + w << "\" y1=\"" << Y(t) << "\" y2=\"" << Y(t)
+        << "\" stroke=\"#ddd\"/><text x=\"" << left - 6 << "\" y=\"" << Y(t) + 4 << "\" text-anchor=\"end\">" << Num(t) << "</text>\n";
+    s << "<text x=\"" << left + w / 2 << "\" y=\"" << y0 + h + 32 << "\" text-anchor=\"middle\">" << Esc(P.x_label) << "</text>\n";
+    s << "<text transform=\"translate(" << 16 << "," << y0 + h / 2 << ") rotate(-90)\" text-anchor=\"middle\">"
+      << Esc(P.y_label) << "</text>\n";
+    int legend = 0;
+    for (const Series& se : P.series) {
+      if (se.points) {
+        for (std::size_t i = 0; i < se.x.size(); ++i) {
+          if (!std::isfinite(se.y[i])) continue;
+          if (i < se.error.size())
+            s << "<line x1=\"" << X(se.x[i]) << "\" x2=\"" << X(se.x[i]) << "\" y1=\"" << Y(se.y[i] - se.error[i])
+              << "\" y2=\"" << Y(se.y[i] + se.error[i]) << "\" stroke=\"" << se.color << "\"/>";
+          s << "<circle cx=\"" << X(se.x[i]) << "\" cy=\"" << Y(se.y[i]) << "\" r=\"2.5\" fill=\"" << se.color << "\"/>\n";
+        }
+      } else if (!se.x.empty()) {
+        s << "<polyline fill=\"none\" stroke=\"" << se.color << "\" stroke-width=\"1.2\" points=\"";
+        for (std::size_t i = 0; i < se.x.size(); ++i)
+          if (std::isfinite(se.y[i])) s << X(se.x[i]) << "," << Y(se.y[i]) << " ";
+        s << "\"/>\n";
+      }
+      if (!se.label.empty()) {
+        const double ly = y0 + 14 + 16 * legend++;
+        s << "<rect x=\"" << left + w + 10 << "\" y=\"" << ly - 9 << "\" width=\"12\" height=\"10\" fill=\"" << se.color
+          << "\"/><text x=\"" << left + w + 26 << "\" y=\"" << ly << "\">" << Esc(se.label) << "</text>\n";
+      }
+    }
+    if (!P.spans.empty())
+      s << "<rect x=\"" << left + w + 10 << "\" y=\"" << y0 + 5 + 16 * legend << "\" width=\"12\" height=\"10\" fill=\"#f6c3c3\"/><text x=\""
+        << left + w + 26 << "\" y=\"" << y0 + 14 + 16 * legend << "\">effect stands out</text>\n";
+  }
+  s << "</svg>\n";
+  return s.str();
+}
+
+}  // namespace calib

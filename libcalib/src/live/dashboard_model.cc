@@ -1,0 +1,250 @@
+#include "calib/live/dashboard_model.h"
+
+#include <algorithm>
+#include <cmath>
+#include <vector>
+
+namespace calib {
+
+namespace {
+
+double Seconds(int64_t us) { return us * 1e-6; }
+
+// Arrivals per second over a window's timestamps (first to last); over less than a
+// second of arrivals (a start, a burst of residuals) their count in that second.
+double Rate(const std::deque<int64_t>& stamps) {
+  if (stamps.empty()) return 0;
+  const double span = Seconds(stamps.back() - stamps.front());
+  return span >= 1.0 ? (stamps.size() - 1) / span : static_cast<double>(stamps.size());
+}
+
+// The rate of a regular source from its stamps: 1 / median interval, so that lost
+// messages (a busy receiver) do not lower it. 0 for fewer than two stamps.
+double MedianRate(const std::deque<int64_t>& stamps) {
+  std::vector<int64_t> steps;
+  for (std::size_t i = 1; i < stamps.size(); ++i) steps.push_back(stamps[i] - stamps[i - 1]);
+  if (steps.empty()) return 0;
+  std::nth_element(steps.begin(), steps.begin() + steps.size() / 2, steps.end());
+  const int64_t median = steps[steps.size() / 2];
+  return median > 0 ? 1.0 / Seconds(median) : 0;
+}
+
+template <typename T>
+void KeepLast(std::deque<T>* values, std::size_t count) {
+  while (values->size() > count) values->pop_front();
+}
+
+}  // namespace
+
+bool DashboardModel::Stale(int64_t last_arrival, int64_t now_us) const {
+  return Seconds(now_us - last_arrival) > options_.stale_after_s;
+}
+
+void DashboardModel::OnMessage(const std::string& channel, const std::string& type, bool decoded,
+                               std::optional<int64_t> utime, int64_t now_us) {
+  Channel& c = channels_[channel];
+  c.type = type;
+  ++c.count;
+  if (!decoded) ++c.undecodable;
+  c.last_arrival = now_us;
+  c.arrivals.push_back(now_us);
+  // A missing or non-increasing utime (unknown type, a replay restarting) restarts the data window.
+  if (!utime || (!c.utimes.empty() && *utime <= c.utimes.back())) c.utimes.clear();
+  if (utime) c.utimes.push_back(*utime);
+  const int64_t window = static_cast<int64_t>(options_.rate_window_s * 1e6);
+  while (!c.arrivals.empty() && now_us - c.arrivals.front() > window) c.arrivals.pop_front();
+  KeepLast(&c.utimes, c.arrivals.size());
+}
+
+void DashboardModel::OnHeartbeat(const agvcal::heartbeat_t& beat, int64_t now_us) {
+  const bool known = processes_.count(beat.process) > 0;
+  Process& p = processes_[beat.process];
+  if (known && p.pid != beat.pid) ++p.restarts;
+  p.pid = beat.pid;
+  p.state = beat.state;
+  p.last_arrival = now_us;
+}
+
+void DashboardModel::OnEstimate(const agvcal::calib_estimate_t& estimate, int64_t now_us) {
+  estimate_ = estimate;
+  ++estimates_;
+  estimate_arrival_ = now_us;
+  for (int i = 0; i < estimate.num_values; ++i) {
+    const std::string& name = estimate.names[i];
+    if (!parameters_.count(name)) parameter_order_.push_back(name);
+    Parameter& p = parameters_[name];
+    p.value = estimate.values[i];
+    p.std = estimate.stds[i];
+    p.nominal = estimate.nominal[i];
+    p.values.push_back(p.value);
+    p.stds.push_back(p.std);
+    KeepLast(&p.values, options_.estimate_history);
+    KeepLast(&p.stds, options_.estimate_history);
+  }
+}
+
+void DashboardModel::OnResidual(const agvcal::calib_residual_t& residual) {
+  // An interval at or before the newest: the solver started over (restart, new replay).
+  while (!residuals_.empty() && residuals_.back().utime_end >= residual.utime_end)
+    residuals_.pop_back();
+  ResidualPoint p;
+  p.utime_end = residual.utime_end;
+  for (int k = 0; k < 3; ++k) p.error[k] = residual.error[k];
+  p.chi2 = residual.chi2;
+  p.outlier = residual.outlier;
+  residuals_.push_back(p);
+  KeepLast(&residuals_, options_.residual_history);
+}
+
+void DashboardModel::OnCommanderStatus(const agvcal::commander_status_t& status, int64_t now_us) {
+  commander_ = status;
+  commander_arrival_ = now_us;
+}
+
+std::vector<ChannelView> DashboardModel::Channels(int64_t now_us) const {
+  std::vector<ChannelView> out;
+  for (const auto& [name, c] : channels_) {
+    ChannelView v;
+    v.name = name;
+    v.type = c.type;
+    v.count = c.count;
+    v.undecodable = c.undecodable;
+    v.age_s = Seconds(now_us - c.last_arrival);
+    v.stale = Stale(c.last_arrival, now_us);
+    if (!v.stale) {
+      v.rate_hz = Rate(c.arrivals);
+      v.data_rate_hz = MedianRate(c.utimes);
+    }
+    out.push_back(v);
+  }
+  return out;
+}
+
+std::vector<ProcessView> DashboardModel::Processes(int64_t now_us) const {
+  std::vector<ProcessView> out;
+  for (const auto& [name, p] : processes_) {
+    ProcessView v;
+    v.name = name;
+    v.pid = p.pid;
+    v.state = p.state;
+    v.age_s = Seconds(now_us - p.last_arrival);
+    v.stale = Stale(p.last_arrival, now_us);
+    v.restarts = p.restarts;
+    out.push_back(v);
+  }
+  return out;
+}
+
+std::vector<ParameterView> DashboardModel::Parameters() const {
+  std::vector<ParameterView> out;
+  for (const std::string& name : parameter_order_) {
+    const Parameter& p = parameters_.at(name);
+    ParameterView v;
+    v.name = name;
+    v.value = p.value;
+    v.std = p.std;
+    v.nominal = p.nominal;
+    v.values.assign(p.values.begin(), p.values.end());
+    v.stds.assign(p.stds.begin(), p.stds.end());
+    const std::size_t n = v.values.size();
+    if (n >= 2 && p.std > 0) {
+      v.last_change_sigmas = std::abs(v.values[n - 1] - v.values[n - 2]) / p.std;
+      const std::size_t needed = static_cast<std::size_t>(options_.converge_count);
+      if (n > needed) {
+        v.converged = true;
+        for (std::size_t i = n - needed; i < n; ++i)
+          if (std::abs(v.values[i] - v.values[i - 1]) >= options_.converge_sigmas * p.std)
+            v.converged = false;
+      }
+    }
+    out.push_back(v);
+  }
+  return out;
+}
+
+EstimateView DashboardModel::Estimate(int64_t now_us) const {
+  EstimateView v;
+  if (!estimate_) return v;
+  const agvcal::calib_estimate_t& e = *estimate_;
+  v.any = true;
+  v.drive = e.drive;
+  v.status = e.status;
+  v.message = e.message;
+  v.utime = e.utime;
+  v.intervals = e.intervals;
+  v.outliers = e.outliers;
+  v.condition = e.condition;
+  v.weak = e.weak;
+  v.estimates = estimates_;
+  v.age_s = Seconds(now_us - estimate_arrival_);
+  return v;
+}
+
+CommanderView DashboardModel::Commander(int64_t now_us) const {
+  CommanderView v;
+  if (!commander_) return v;
+  v.any = true;
+  v.trajectory = commander_->trajectory;
+  v.segment_name = commander_->segment_name;
+  v.state = commander_->state;
+  v.segment = commander_->segment;
+  v.num_segments = commander_->num_segments;
+  v.age_s = Seconds(now_us - commander_arrival_);
+  v.stale = Stale(commander_arrival_, now_us);
+  return v;
+}
+
+std::vector<double> DashboardModel::ResidualSeries(int component, std::size_t count) const {
+  std::vector<double> out;
+  for (auto it = residuals_.rbegin(); it != residuals_.rend(); ++it) {
+    if (count > 0 && out.size() >= count) break;
+    if (!it->outlier) out.push_back(it->error[component]);
+  }
+  std::reverse(out.begin(), out.end());
+  return out;
+}
+
+ResidualStats DashboardModel::Stats(int component) const {
+  ResidualStats s;
+  double sum2 = 0;
+  for (const ResidualPoint& p : residuals_) {
+    ++s.count;
+    if (p.outlier) {
+      ++s.outliers;
+      continue;
+    }
+    const double e = p.error[component];
+    sum2 += e * e;
+    s.max_abs = std::max(s.max_abs, std::abs(e));
+  }
+  const int inliers = s.count - s.outliers;
+  if (inliers > 0) s.rms = std::sqrt(sum2 / inliers);
+  return s;
+}
+
+Histogram DashboardModel::ResidualHistogram(int component, int bins, double range) const {
+  Histogram h;
+  bins = std::max(bins, 1);
+  h.counts.assign(bins, 0);
+  if (range <= 0) range = Stats(component).max_abs;
+  if (range <= 0) range = 1e-9;  // all zero (or none): one tiny central range
+  h.lo = -range;
+  h.hi = range;
+  const double width = (h.hi - h.lo) / bins;
+  for (const ResidualPoint& p : residuals_) {
+    if (p.outlier) continue;
+    const double e = p.error[component];
+    int bin = static_cast<int>(std::floor((e - h.lo) / width));
+    if (bin < 0) {
+      ++h.below;
+      bin = 0;
+    } else if (bin >= bins) {
+      if (e > h.hi) ++h.above;
+      bin = bins - 1;  // the upper edge itself belongs to the last bin
+    }
+    ++h.counts[bin];
+  }
+  return h;
+}
+
+}  // namespace calib

@@ -1,0 +1,41 @@
+#include "calib/live/sim_run.h"
+
+#include <cmath>
+
+#include "calib/io/messages.h"
+
+namespace calib {
+
+OfflineRunSummary RunOffline(const SimConfig& config, const OfflineRunOptions& options,
+                             MessageSink* sink) {
+  Simulator sim(config);
+  Commander commander(config.robot, options.custom_trajectory
+                                        ? *options.custom_trajectory
+                                        : MakeTrajectory(config.robot, options.trajectory));
+  const int64_t period = std::llround(1e6 / options.command_rate_hz);
+  const int64_t start = sim.utime();
+  const int64_t cap = start + std::llround(options.max_duration_s * 1e6);
+  OfflineRunSummary summary;
+  int64_t finished_at = -1;
+  int64_t next_progress = start;
+  for (int64_t t = start; t < cap; t += period) {
+    sim.AdvanceTo(t, sink);
+    if (finished_at >= 0 && t - finished_at >= std::llround(options.tail_s * 1e6)) break;
+    // The commander's clock is the newest wheel state, as in the live process.
+    DriveCommand command = commander.Step(sim.last_wheels_utime());
+    command.utime = sim.last_wheels_utime();
+    sink->Publish(kDriveCmdChannel, t, Encode(ToMessage(command, config.robot, summary.commands)));
+    ++summary.commands;
+    sim.ApplyCommand(command);
+    if (finished_at < 0 && commander.status().state == CommanderState::kFinished) finished_at = t;
+    if (options.progress && t >= next_progress) {
+      options.progress((t - start) * 1e-6, 0.0);
+      next_progress += 1000000;
+    }
+  }
+  summary.duration_s = (sim.utime() - start) * 1e-6;
+  summary.final_true_pose = sim.true_pose();
+  return summary;
+}
+
+}  // namespace calib

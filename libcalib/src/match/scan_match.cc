@@ -1,0 +1,649 @@
+#include "calib/match/scan_match.h"
+
+#include <algorithm>
+#include <cmath>
+#include <limits>
+#include <stdexcept>
+#include <utility>
+
+#include <Eigen/Eigenvalues>
+
+#include "calib/core/errors.h"
+
+namespace calib {
+
+namespace {
+
+constexpr int kAngleBins = 1024;
+
+// A scan covers a full turn when its beams span 2 pi (within one beam).
+bool FullCircle(const LaserScan& scan) {
+  return scan.size() > 1 && std::abs(scan.angle_increment) * scan.size() >=
+                                2.0 * M_PI - 1.5 * std::abs(scan.angle_increment);
+}
+
+ScanPoints EmptyPoints(const LaserScan& scan) {
+  ScanPoints out;
+  out.utime = scan.utime;
+  out.angle_increment = scan.angle_increment;
+  out.full_circle = FullCircle(scan);
+  out.points.reserve(scan.ranges.size());
+  return out;
+}
+
+Eigen::Vector2d Apply(const Pose2& pose, const Eigen::Vector2d& p) {
+  const double c = std::cos(pose.theta), s = std::sin(pose.theta);
+  return {pose.x + c * p.x() - s * p.y(), pose.y + s * p.x() + c * p.y()};
+}
+
+// Variance of a standard normal kept within |e| <= z: what the mean square of
+// the kept errors underestimates sigma^2 by.
+double TruncatedVarianceFactor(double z) {
+  if (!std::isfinite(z)) return 1.0;
+  const double inside = std::erf(z / std::sqrt(2.0));
+  if (inside <= 1e-6) return 1.0;
+  const double pdf = std::exp(-0.5 * z * z) / std::sqrt(2.0 * M_PI);
+  return std::max(1.0 - 2.0 * z * pdf / inside, 1e-3);
+}
+
+}  // namespace
+
+ScanPoints ScanToPoints(const LaserScan& scan) {
+  ScanPoints out = EmptyPoints(scan);
+  for (int i = 0; i < scan.size(); ++i) {
+    if (!scan.HasReturn(i)) continue;
+    const double a = scan.BeamAngle(i), r = scan.ranges[i];
+    out.points.emplace_back(r * std::cos(a), r * std::sin(a));
+  }
+  return out;
+}
+
+Pose2 PredictSensorMotion(const WheelTrack& track, const DriveModel& model, const Pose2& mount,
+                          double t0, double t1) {
+  return Between(mount, Compose(track.Odometry(model, t0, t1), mount));
+}
+
+namespace {
+
+// Encoder readings at the knots, each drive and steering reading smoothed by a
+// least-squares quadratic in time over the samples within `smoothing_s` of
+// the knots' span (raw, interpolated readings when there are too few).
+std::vector<WheelSample> ReadingsAt(const WheelTrack& track, const std::vector<double>& knots,
+                                    double smoothing_s) {
+  std::vector<WheelSample> out;
+  const double margin = smoothing_s * 1e6;
+  const double lo = std::max(knots.front() - margin, double(track.first_utime()));
+  const double hi = std::min(knots.back() + margin, double(track.last_utime()));
+  const auto& samples = track.samples();
+  auto first = std::lower_bound(samples.begin(), samples.end(), lo,
+                                [](const WheelSample& s, double t) { return double(s.utime) < t; });
+  auto last = std::upper_bound(samples.begin(), samples.end(), hi,
+                               [](double t, const WheelSample& s) { return t < double(s.utime); });
+  if (smoothing_s <= 0.0 || last - first < 5) {
+    for (double t : knots) out.push_back(track.At(t));
+    return out;
+  }
+  const double centre = 0.5 * (knots.front() + knots.back());
+  const std::size_t roles = first->position.size();
+  Eigen::Matrix3d normal = Eigen::Matrix3d::Zero();
+  Eigen::MatrixXd rhs = Eigen::MatrixXd::Zero(3, 2 * roles);
+  for (auto it = first; it != last; ++it) {
+    const double tau = (double(it->utime) - centre) * 1e-6;
+    const Eigen::Vector3d basis(1.0, tau, tau * tau);
+    normal += basis * basis.transpose();
+    for (std::size_t r = 0; r < roles; ++r) {
+      // Relative to the first sample: positions are unbounded, keep precision.
+      rhs.col(r) += basis * (it->position[r] - first->position[r]);
+      rhs.col(roles + r) += basis * it->steer[r];
+    }
+  }
+  const Eigen::MatrixXd coefficients = normal.ldlt().solve(rhs);
+  for (double t : knots) {
+    const double tau = (t - centre) * 1e-6;
+    const Eigen::Vector3d basis(1.0, tau, tau * tau);
+    WheelSample sample;
+    sample.utime = static_cast<int64_t>(std::llround(t));
+    for (std::size_t r = 0; r < roles; ++r) {
+      sample.position.push_back(first->position[r] + basis.dot(coefficients.col(r)));
+      sample.steer.push_back(basis.dot(coefficients.col(roles + r)));
+    }
+    out.push_back(sample);
+  }
+  return out;
+}
+
+}  // namespace
+
+ScanPoints DeskewScan(const LaserScan& scan, const WheelTrack& track, const DriveModel& model,
+                      const Pose2& mount, double smoothing_s) {
+  if (scan.time_increment <= 0.0 || scan.size() < 2) return ScanToPoints(scan);
+  const double t0 = double(scan.utime), t1 = scan.BeamTime(scan.size() - 1);
+  if (!track.Covers(t0, t1))
+    throw std::invalid_argument("DeskewScan: wheel data do not cover the scan at utime " +
+                                std::to_string(scan.utime));
+  // Knots: the scan's ends and the encoder samples between them. The sensor
+  // moves with a constant twist between knots.
+  std::vector<double> knots{t0};
+  const auto& samples = track.samples();
+  auto it = std::upper_bound(samples.begin(), samples.end(), t0,
+                             [](double t, const WheelSample& s) { return t < double(s.utime); });
+  for (; it != samples.end() && double(it->utime) < t1; ++it) knots.push_back(double(it->utime));
+  knots.push_back(t1);
+  const std::vector<WheelSample> readings = ReadingsAt(track, knots, smoothing_s);
+
+  std::vector<Pose2> sensor(knots.size());  // sensor pose at each knot, frame of the sensor at t0
+  std::vector<Twist2> twist(knots.size() - 1);
+  Pose2 robot;  // robot pose relative to the robot at t0
+  WheelIncrement increment;
+  for (std::size_t k = 0; k + 1 < knots.size(); ++k) {
+    const WheelSample& a = readings[k];
+    const WheelSample& b = readings[k + 1];
+    increment.rotation.resize(a.position.size());
+    for (std::size_t r = 0; r < a.position.size(); ++r)
+      increment.rotation[r] = b.position[r] - a.position[r];
+    increment.steer_start = a.steer;
+    increment.steer_end = b.steer;
+    robot = Compose(robot, model.Integrate(increment));
+    sensor[k + 1] = Between(mount, Compose(robot, mount));
+    twist[k] = LogTwist(Between(sensor[k], sensor[k + 1]), (knots[k + 1] - knots[k]) * 1e-6);
+  }
+
+  ScanPoints out = EmptyPoints(scan);
+  std::size_t k = 0;
+  for (int i = 0; i < scan.size(); ++i) {
+    if (!scan.HasReturn(i)) continue;
+    const double t = scan.BeamTime(i);
+    while (k + 2 < knots.size() && t > knots[k + 1]) ++k;
+    const Pose2 pose = Compose(sensor[k], ExpTwist(twist[k], (t - knots[k]) * 1e-6));
+    const double a = scan.BeamAngle(i), r = scan.ranges[i];
+    out.points.push_back(Apply(pose, {r * std::cos(a), r * std::sin(a)}));
+  }
+  return out;
+}
+
+PreparedScan::PreparedScan(ScanPoints points, const ScanMatchOptions& options)
+    : points_(std::move(points)) {
+  const std::vector<Eigen::Vector2d>& pts = points_.points;
+  const int n = static_cast<int>(pts.size());
+  constexpr int kMaxSide = 25;  // neighbours each side at most
+  lines_.reserve(n);
+  for (int i = 0; i < n; ++i) {
+    const Eigen::Vector2d& q = pts[i];
+    const double range = q.norm();
+    if (!(range > 0.0)) continue;
+    const double radius =
+        std::max(options.line_fit_radius_m,
+                 options.line_fit_beams * range * std::abs(points_.angle_increment));
+    // The neighbourhood: consecutive points within the radius, both sides;
+    // sums relative to q for precision.
+    Eigen::Vector2d sum = Eigen::Vector2d::Zero();
+    double sxx = 0.0, sxy = 0.0, syy = 0.0;
+    int count = 1;
+    for (int side = -1; side <= 1; side += 2) {
+      for (int k = 1; k <= kMaxSide && k < n; ++k) {
+        int j = i + side * k;
+        if (j < 0 || j >= n) {
+          if (!points_.full_circle) break;
+          j = (j + n) % n;
+        }
+        const Eigen::Vector2d d = pts[j] - q;
+        if (d.squaredNorm() > radius * radius) break;
+        sum += d;
+        sxx += d.x() * d.x();
+        sxy += d.x() * d.y();
+        syy += d.y() * d.y();
+        ++count;
+      }
+    }
+    if (count < options.line_fit_min_points) continue;
+    const Eigen::Vector2d mean = sum / count;
+    const double a = sxx / count - mean.x() * mean.x();
+    const double b = sxy / count - mean.x() * mean.y();
+    const double c = syy / count - mean.y() * mean.y();
+    const double half_trace = 0.5 * (a + c);
+    const double root = std::sqrt(0.25 * (a - c) * (a - c) + b * b);
+    const double lambda_max = half_trace + root, lambda_min = half_trace - root;
+    if (!(lambda_max > 0.0) || lambda_min > options.line_max_flatness * lambda_max) continue;
+    const double phi = 0.5 * std::atan2(2.0 * b, a - c);  // direction of the line
+    Line line;
+    line.point = q;
+    line.centroid = q + mean;
+    line.normal = Eigen::Vector2d(-std::sin(phi), std::cos(phi));
+    line.direction = q / range;
+    line.angle = std::atan2(q.y(), q.x());
+    if (line.angle >= M_PI) line.angle -= 2.0 * M_PI;
+    line.support = count;
+    lines_.push_back(line);
+  }
+  std::stable_sort(lines_.begin(), lines_.end(),
+                   [](const Line& x, const Line& y) { return x.angle < y.angle; });
+  bin_start_.resize(kAngleBins + 1);
+  std::size_t j = 0;
+  for (int b = 0; b <= kAngleBins; ++b) {
+    const double lower = -M_PI + b * (2.0 * M_PI / kAngleBins);
+    while (j < lines_.size() && lines_[j].angle < lower) ++j;
+    bin_start_[b] = static_cast<int>(j);
+  }
+}
+
+int PreparedScan::Nearest(const Eigen::Vector2d& p, double max_distance) const {
+  const int n = static_cast<int>(lines_.size());
+  if (n == 0) return -1;
+  const double range = p.norm();
+  const double alpha = std::atan2(p.y(), p.x());
+  int bin = static_cast<int>((alpha + M_PI) * (kAngleBins / (2.0 * M_PI)));
+  bin = std::clamp(bin, 0, kAngleBins - 1);
+  int start = bin_start_[bin];
+  while (start < n && lines_[start].angle < alpha) ++start;
+  if (start == n) start = 0;
+
+  double best = max_distance * max_distance;
+  int best_index = -1;
+  // Walk outwards in angle both ways. The distance to any point at angular
+  // offset d from p is at least range * sin(d) (range beyond a quarter turn),
+  // and d only grows along the walk, so a walk stops once that bound exceeds
+  // the best distance so far.
+  auto visit = [&](int j) {
+    const Line& line = lines_[j];
+    const double along = p.dot(line.direction);
+    const double across = p.x() * line.direction.y() - p.y() * line.direction.x();
+    const double bound = along > 0.0 ? across * across : range * range;
+    if (bound >= best) return false;
+    const double d2 = (p - line.point).squaredNorm();
+    if (d2 < best) {
+      best = d2;
+      best_index = j;
+    }
+    return true;
+  };
+  for (int k = 0; k < n; ++k)
+    if (!visit((start + k) % n)) break;
+  for (int k = 1; k < n; ++k)
+    if (!visit((start - k + n) % n)) break;
+  return best_index;
+}
+
+SensorMotion MatchPointsToLines(const PreparedScan& reference, const ScanPoints& current,
+                                const Pose2& prior, const ScanMatchOptions& options,
+                                ScanMatchReport* report) {
+  SensorMotion result;
+  result.utime_start = reference.utime();
+  result.utime_end = current.utime;
+  result.delta = prior;
+  result.valid = false;
+  ScanMatchReport local;
+  ScanMatchReport& rep = report ? *report : local;
+  rep = ScanMatchReport{};
+
+  const int n = static_cast<int>(current.points.size());
+  if (n == 0 || reference.num_lines() == 0) return result;
+
+  struct Pair {
+    int index;     // current point
+    int line;      // reference line
+    double error;  // n · (T q − c)
+  };
+  std::vector<Pair> pairs;
+  pairs.reserve(n);
+  std::vector<double> abs_errors;
+  abs_errors.reserve(n);
+
+  Eigen::Vector3d x(prior.x, prior.y, prior.theta);
+  Eigen::Matrix3d hessian = Eigen::Matrix3d::Zero();
+  Eigen::Matrix3d eigenvectors = Eigen::Matrix3d::Identity();
+  Eigen::Vector3d eigenvalues = Eigen::Vector3d::Zero();
+  double sum_e2 = 0.0, mean_support = 0.0, scale = 1.0, truncation = 1.0;
+  int kept = 0;
+  int weak = 0;  // eigen-directions (smallest first) too weak to be measured
+  constexpr int kCycleMemory = 4;
+  Eigen::Vector3d history[kCycleMemory];  // latest iterates, newest first
+  for (auto& h : history) h.setConstant(std::numeric_limits<double>::quiet_NaN());
+  for (int iteration = 0; iteration < options.max_iterations; ++iteration) {
+    rep.iterations = iteration + 1;
+    const double c = std::cos(x[2]), s = std::sin(x[2]);
+    pairs.clear();
+    abs_errors.clear();
+    for (int i = 0; i < n; ++i) {
+      const Eigen::Vector2d& q = current.points[i];
+      const Eigen::Vector2d p(x[0] + c * q.x() - s * q.y(), x[1] + s * q.x() + c * q.y());
+      const int j = reference.Nearest(p, options.max_correspondence_distance_m);
+      if (j < 0) continue;
+      const PreparedScan::Line& line = reference.line(j);
+      const double e = line.normal.dot(p - line.centroid);
+      pairs.push_back({i, j, e});
+      abs_errors.push_back(std::abs(e));
+    }
+    if (static_cast<int>(pairs.size()) < options.min_correspondences) {
+      rep.correspondences = static_cast<int>(pairs.size());
+      return result;
+    }
+    // Robust scale of the errors (MAD), then keep the pairs with |e| within
+    // residual_gate_sigmas of it and up to the (1 - trim) quantile.
+    const std::size_t mid = abs_errors.size() / 2;
+    std::nth_element(abs_errors.begin(), abs_errors.begin() + mid, abs_errors.end());
+    const double robust_sigma = std::max(1.4826 * abs_errors[mid], 1e-9);
+    double threshold = options.residual_gate_sigmas > 0
+                           ? options.residual_gate_sigmas * robust_sigma
+                           : std::numeric_limits<double>::infinity();
+    const int keep = static_cast<int>(std::ceil((1.0 - options.trim_fraction) * pairs.size()));
+    if (keep < static_cast<int>(pairs.size()) && keep > 0) {
+      std::nth_element(abs_errors.begin(), abs_errors.begin() + (keep - 1), abs_errors.end());
+      threshold = std::min(threshold, abs_errors[keep - 1]);
+    }
+    truncation = TruncatedVarianceFactor(threshold / robust_sigma);
+    hessian.setZero();
+    Eigen::Vector3d gradient = Eigen::Vector3d::Zero();
+    double sum_r2 = 0.0;
+    sum_e2 = 0.0;
+    mean_support = 0.0;
+    kept = 0;
+    for (const Pair& pair : pairs) {
+      if (std::abs(pair.error) > threshold || kept >= keep) continue;
+      const PreparedScan::Line& line = reference.line(pair.line);
+      const Eigen::Vector2d& q = current.points[pair.index];
+      // d(T q)/d theta = R(theta + pi/2) q.
+      const Eigen::Vector2d dp(-s * q.x() - c * q.y(), c * q.x() - s * q.y());
+      const Eigen::Vector3d jacobian(line.normal.x(), line.normal.y(), line.normal.dot(dp));
+      hessian.noalias() += jacobian * jacobian.transpose();
+      gradient += jacobian * pair.error;
+      sum_e2 += pair.error * pair.error;
+      sum_r2 += q.squaredNorm();
+      mean_support += line.support;
+      ++kept;
+    }
+    rep.correspondences = kept;
+    if (kept < options.min_correspondences) return result;
+    mean_support /= kept;
+    // Scale theta by the RMS range so that translation and rotation compare.
+    scale = std::sqrt(sum_r2 / kept);
+    const Eigen::Vector3d unscale(1.0, 1.0, 1.0 / scale);
+    const Eigen::Matrix3d scaled = unscale.asDiagonal() * hessian * unscale.asDiagonal();
+    Eigen::SelfAdjointEigenSolver<Eigen::Matrix3d> eigen;
+    eigen.computeDirect(scaled);
+    eigenvalues = eigen.eigenvalues();  // ascending
+    eigenvectors = eigen.eigenvectors();
+    if (!(eigenvalues[2] > 0.0)) return result;
+    weak = 0;
+    while (weak < 2 && eigenvalues[weak] < options.degeneracy_ratio * eigenvalues[2]) ++weak;
+    // Gauss-Newton step in scaled coordinates, without the weak directions.
+    const Eigen::Vector3d scaled_gradient = unscale.asDiagonal() * gradient;
+    Eigen::Vector3d step = Eigen::Vector3d::Zero();
+    for (int k = weak; k < 3; ++k)
+      step -= eigenvectors.col(k) * (eigenvectors.col(k).dot(scaled_gradient) / eigenvalues[k]);
+    step = unscale.asDiagonal() * step;
+    x += step;
+    x[2] = WrapAngle(x[2]);
+    if (step.head<2>().norm() < options.convergence_m &&
+        std::abs(step[2]) < options.convergence_rad) {
+      rep.converged = true;
+      break;
+    }
+    // A pair flipping in and out of the kept set can make the iteration
+    // cycle between a few nearby states: converged, at their mean.
+    int period = 0;
+    for (int k = 0; k < kCycleMemory && !period; ++k)
+      if ((history[k] - x).cwiseAbs().maxCoeff() < 1e-12) period = k + 1;
+    if (period) {
+      Eigen::Vector3d mean = Eigen::Vector3d::Zero();
+      for (int k = 0; k < period; ++k) mean += history[k];
+      x = mean / period;
+      rep.converged = true;
+      break;
+    }
+    for (int k = kCycleMemory - 1; k > 0; --k) history[k] = history[k - 1];
+    history[0] = x;
+  }
+
+  if (kept == 0) return result;
+  result.delta = {x[0], x[1], x[2]};
+  const double sigma2 =
+      kept > 3 ? sum_e2 / (kept - 3) / truncation / (1.0 + 1.0 / mean_support) : 0.0;
+  rep.sigma = std::sqrt(sigma2);
+  rep.characteristic_range = scale;
+  rep.eigenvalue_ratio = eigenvalues[2] > 0.0 ? eigenvalues[0] / eigenvalues[2] : 0.0;
+  // Covariance in scaled coordinates, the weak directions uninformative.
+  Eigen::Matrix3d scaled_cov = Eigen::Matrix3d::Zero();
+  for (int k = 0; k < 3; ++k) {
+    const double variance = k < weak ? options.degenerate_sigma_m * options.degenerate_sigma_m
+                                     : 2.0 * sigma2 / eigenvalues[k];
+    scaled_cov += variance * eigenvectors.col(k) * eigenvectors.col(k).transpose();
+  }
+  const Eigen::Vector3d unscale(1.0, 1.0, 1.0 / scale);
+  result.covariance = unscale.asDiagonal() * scaled_cov * unscale.asDiagonal();
+  Eigen::Vector3d direction = unscale.asDiagonal() * eigenvectors.col(0);
+  direction.normalize();
+  Eigen::Index largest = 0;
+  direction.cwiseAbs().maxCoeff(&largest);
+  if (direction[largest] < 0) direction = -direction;
+  result.weak_direction = direction;
+  result.degenerate = weak > 0;
+  result.inlier_fraction = double(kept) / n;
+  result.rms = std::sqrt(sum_e2 / kept);
+  result.valid = rep.converged && result.inlier_fraction >= options.min_inlier_fraction;
+  if (!result.covariance.allFinite() || !result.weak_direction.allFinite()) {
+    result.covariance = Eigen::Matrix3d::Identity();
+    result.weak_direction = Eigen::Vector3d::Zero();
+    result.valid = false;
+  }
+  return result;
+}
+
+namespace {
+
+// Jacobian of Inverse() at `a`, for carrying a covariance through it.
+Eigen::Matrix3d InverseJacobian(const Pose2& a) {
+  const double c = std::cos(a.theta), s = std::sin(a.theta);
+  Eigen::Matrix3d j;
+  j << -c, -s, s * a.x - c * a.y,  //
+      s, -c, c * a.x + s * a.y,    //
+      0.0, 0.0, -1.0;
+  return j;
+}
+
+}  // namespace
+
+SensorMotion MatchScans(const PreparedScan& reference, const PreparedScan& current,
+                        const Pose2& prior, const ScanMatchOptions& options,
+                        ScanMatchReport* report) {
+  ScanMatchReport forward_report;
+  const SensorMotion forward =
+      MatchPointsToLines(reference, current.points(), prior, options, &forward_report);
+  if (report) *report = forward_report;
+  if (!options.symmetric) return forward;
+
+  ScanMatchReport backward_report;
+  // Start the way back from the way there when it worked: fewer iterations.
+  const Pose2 start = Inverse(forward.valid ? forward.delta : prior);
+  const SensorMotion backward =
+      MatchPointsToLines(current, reference.points(), start, options, &backward_report);
+  if (report) {
+    report->iterations += backward_report.iterations;
+    report->converged = forward_report.converged && backward_report.converged;
+  }
+  // The way back, expressed as the way there.
+  SensorMotion back = backward;
+  back.utime_start = forward.utime_start;
+  back.utime_end = forward.utime_end;
+  back.delta = Inverse(backward.delta);
+  const Eigen::Matrix3d jacobian = InverseJacobian(backward.delta);
+  back.covariance = jacobian * backward.covariance * jacobian.transpose();
+  if (backward.weak_direction.squaredNorm() > 0) {
+    Eigen::Vector3d direction = (jacobian * backward.weak_direction).normalized();
+    Eigen::Index largest = 0;
+    direction.cwiseAbs().maxCoeff(&largest);
+    back.weak_direction = direction[largest] < 0 ? -direction : direction;
+  }
+  if (!backward.valid) return forward;
+  if (!forward.valid) return back;
+
+  SensorMotion out = forward;
+  out.delta = Interpolate(forward.delta, back.delta, 0.5);
+  out.covariance = 0.5 * (forward.covariance + back.covariance);
+  out.degenerate = forward.degenerate || back.degenerate;
+  if (!forward.degenerate && back.degenerate) out.weak_direction = back.weak_direction;
+  out.inlier_fraction = 0.5 * (forward.inlier_fraction + back.inlier_fraction);
+  out.rms = std::sqrt(0.5 * (forward.rms * forward.rms + back.rms * back.rms));
+  return out;
+}
+
+// --- Pipeline
+
+ScanMatchPipeline::ScanMatchPipeline(const RobotDescription& robot, ScanMatchOptions options)
+    : options_(options),
+      model_(MakeDriveModel(robot)),
+      num_wheels_(WheelRoles(robot.drive).size()) {
+  if (!robot.lidar2d)
+    throw InputError(robot.source_file, "lidar2d", "the robot has no 2D lidar to match scans of");
+  mount_ = {robot.lidar2d->x, robot.lidar2d->y, robot.lidar2d->yaw};
+}
+
+ScanMatchPipeline::~ScanMatchPipeline() = default;
+
+namespace {
+// The median of the last few encoder intervals: the stream's own rate.
+int64_t MedianInterval(std::deque<int64_t> intervals) {
+  if (intervals.empty()) return 0;
+  auto middle = intervals.begin() + intervals.size() / 2;
+  std::nth_element(intervals.begin(), middle, intervals.end());
+  return *middle;
+}
+}  // namespace
+
+void ScanMatchPipeline::AddWheels(const WheelSample& sample) {
+  if (sample.position.size() != num_wheels_ || sample.steer.size() != num_wheels_)
+    throw std::invalid_argument("ScanMatchPipeline::AddWheels: sample has " +
+                                std::to_string(sample.position.size()) + " wheels, expected " +
+                                std::to_string(num_wheels_));
+  const bool had_samples = !track_.samples().empty();
+  const int64_t previous_utime = had_samples ? track_.samples().back().utime : 0;
+  if (!track_.Append(sample)) {
+    ++counts_.wheels_dropped;
+    return;
+  }
+  ++counts_.wheels;
+  if (had_samples) {
+    recent_intervals_.push_back(sample.utime - previous_utime);
+    if (recent_intervals_.size() > 15) recent_intervals_.pop_front();
+  }
+  typical_interval_.emplace_back(sample.utime, MedianInterval(recent_intervals_));
+  Process();
+}
+
+void ScanMatchPipeline::AddScan(const LaserScan& scan) {
+  if (have_scan_ && scan.utime <= last_scan_utime_) {
+    ++counts_.scans_dropped;
+    return;
+  }
+  have_scan_ = true;
+  last_scan_utime_ = scan.utime;
+  ++counts_.scans;
+  pending_.push_back(scan);
+  if (static_cast<int>(pending_.size()) > std::max(options_.max_pending_scans, 1)) {
+    pending_.pop_front();
+    ++counts_.scans_uncovered;
+  }
+  Process();
+}
+
+void ScanMatchPipeline::Finish() {
+  Process(true /* finishing */);
+  counts_.scans_uncovered += static_cast<int64_t>(pending_.size());
+  pending_.clear();
+}
+
+std::vector<SensorMotion> ScanMatchPipeline::TakeResults() {
+  std::vector<SensorMotion> out;
+  out.swap(results_);
+  return out;
+}
+
+void ScanMatchPipeline::Process(bool finishing) {
+  bool progressed = false;
+  while (!pending_.empty() && !track_.empty()) {
+    const LaserScan& scan = pending_.front();
+    if (scan.utime < track_.first_utime()) {  // wheel data began after it: never covered
+      pending_.pop_front();
+      ++counts_.scans_uncovered;
+      continue;
+    }
+    // The de-skewing smooths the encoder readings over a margin around the
+    // scan: wait for it too, so the result does not depend on when wheel data
+    // arrive (at the end of the data, what there is).
+    const double margin = options_.deskew ? options_.deskew_smoothing_s * 1e6 : 0.0;
+    if (!track_.Covers(double(scan.utime), double(scan.end_utime()) + (finishing ? 0.0 : margin)))
+      break;
+    // Keyframes: a scan is matched against the last matched one once the robot has moved
+    // enough. Over longer baselines the matcher's small per-pair bias (about 0.02 mm, a
+    // 0.07 % scale error at 25 mm per pair) becomes negligible, and it costs fewer matches.
+    if (reference_) {
+      const double t0 = double(reference_->utime()), t1 = double(scan.utime);
+      const Pose2 moved = PredictSensorMotion(track_, *model_, mount_, t0, t1);
+      if (std::hypot(moved.x, moved.y) < options_.keyframe_translation_m &&
+          std::abs(moved.theta) < options_.keyframe_rotation_rad &&
+          (t1 - t0) * 1e-6 < options_.keyframe_max_interval_s) {
+        pending_.pop_front();
+        ++counts_.between_keyframes;
+        continue;
+      }
+    }
+    PreparedScan prepared(
+        options_.deskew ? DeskewScan(scan, track_, *model_, mount_, options_.deskew_smoothing_s)
+                        : ScanToPoints(scan),
+        options_);
+    if (reference_) {
+      const double t0 = double(reference_->utime()), t1 = double(scan.utime);
+      const Pose2 prior = PredictSensorMotion(track_, *model_, mount_, t0, t1);
+      SensorMotion motion = MatchScans(*reference_, prepared, prior, options_);
+      // Encoder gaps over the pair: the prior and the de-skewing are guesses there.
+      const auto& samples = track_.samples();
+      auto it =
+          std::upper_bound(samples.begin(), samples.end(), t0,
+                           [](double t, const WheelSample& s) { return t < double(s.utime); });
+      if (it != samples.begin()) --it;
+      // A gap is a dropout when it is longer than max_wheel_gap_s and than
+      // wheel_gap_factor times the stream's median interval before the pair
+      // (a slow encoder stream is the recording's rate, not a gap). The
+      // median is taken over samples before the pair only, so live and
+      // offline agree whatever the interleaving.
+      const int64_t typical =
+          std::lower_bound(typical_interval_.begin(), typical_interval_.end(), it->utime,
+                           [](const std::pair<int64_t, int64_t>& e, int64_t t) { return e.first < t; })
+              ->second;
+      const double limit_us =
+          1e6 * std::max(options_.max_wheel_gap_s, options_.wheel_gap_factor * double(typical) * 1e-6);
+      int64_t gap = 0;
+      for (; it + 1 != samples.end() && double(it->utime) < double(scan.end_utime()); ++it)
+        gap = std::max(gap, (it + 1)->utime - it->utime);
+      if (double(gap) > limit_us) {
+        motion.valid = false;
+        ++counts_.wheel_gaps;
+      }
+      ++counts_.matches;
+      if (!motion.valid) ++counts_.invalid;
+      if (motion.degenerate) ++counts_.degenerate;
+      results_.push_back(motion);
+    }
+    reference_.emplace(std::move(prepared));
+    pending_.pop_front();
+    progressed = true;
+  }
+  if (progressed) ReleaseOldWheels();
+}
+
+void ScanMatchPipeline::ReleaseOldWheels() {
+  // Keep the last sample at or before the reference scan (the prior starts
+  // there) less the smoothing margin (the next scan's de-skewing reads back to there).
+  const auto& samples = track_.samples();
+  const double t0 = double(reference_->utime()) - std::max(options_.deskew_smoothing_s, 0.0) * 1e6;
+  auto it = std::upper_bound(samples.begin(), samples.end(), t0,
+                             [](double t, const WheelSample& s) { return t < double(s.utime); });
+  if (it != samples.begin()) --it;
+  const std::size_t drop = static_cast<std::size_t>(it - samples.begin());
+  if (drop < 1024 || drop < samples.size() / 2) return;  // rebuild rarely: amortised O(1)
+  WheelTrack kept;
+  for (; it != samples.end(); ++it) kept.Append(*it);
+  track_ = std::move(kept);
+  while (typical_interval_.front().first < track_.samples().front().utime) typical_interval_.pop_front();
+}
+
+}  // namespace calib
