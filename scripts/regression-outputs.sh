@@ -15,6 +15,9 @@ agvcal=${AGVCAL_BIN:-$here/build}/agvcal
 [ -x "$agvcal" ] || { echo "no $agvcal (build first, or set AGVCAL_BIN)" >&2; exit 2; }
 mkdir -p "$out"
 : > "$out/status.txt"
+# One run at a time on this machine (the work folder below is fixed).
+exec 9> /tmp/agvcal-regression.lock
+flock 9
 
 run() {  # run NAME COMMAND...: stdout, stderr and exit status under OUTDIR/NAME.*
   local name=$1; shift
