@@ -97,7 +97,7 @@ TEST(Diagnose, CleanForkliftHasNoEffect) {
   EXPECT_TRUE(r.effects.empty());
   // The commander never steers faster than the robot's limit: a slower limit could show,
   // a faster one cannot.
-  EXPECT_EQ(Outcome(r, "steering_rate_limit").status, "not_identifiable");
+  EXPECT_EQ(Outcome(r, "steering_rate_limit").status, CandidateStatus::kNotIdentifiable);
   EXPECT_GT(r.fit_intervals, 100);
   EXPECT_GT(r.heldout_intervals, 100);
 }
@@ -189,7 +189,7 @@ TEST(Diagnose, UnexcitedSteeringLagIsNotNamedAsSomethingElse) {
   // Steering turns only at standstill (and settles for 0.5 s): this recording could not
   // have detected a lag of the size present, and says so.
   const CandidateOutcome& lag = Outcome(r, "steering_lag");
-  EXPECT_NE(lag.status, "found");
+  EXPECT_NE(lag.status, CandidateStatus::kFound);
   EXPECT_GT(lag.detectable, 0.1);
 }
 
@@ -200,7 +200,7 @@ TEST(Diagnose, UnexcitedSteeringLagIsNotNamedAsSomethingElse) {
 TEST(Diagnose, NoisySteeringReadingsAreNotASteeringLag) {
   const DiagnoseReport r = DiagnoseSim(Sim("dual_steer_agv", 3009));
   EXPECT_TRUE(r.effects.empty()) << "named: " << Named(r) << "\n" << DiagnoseSummaryText(r);
-  EXPECT_NE(Outcome(r, "steering_lag").status, "found");
+  EXPECT_NE(Outcome(r, "steering_lag").status, CandidateStatus::kFound);
 }
 
 // A time offset and a longitudinal slip on the dual-steer AGV at the concealed-effect
@@ -265,7 +265,7 @@ TEST(Diagnose, SteeringLagWhenSteeringWhileDriving) {
   const DiagnoseReport r = Diagnose(c.robot, data, DiagnoseOptions{}, log.path());
   ExpectFound(r, "steering_lag", "tau_s", 0.05);
   // Its look-alike, a time offset, was tested against it and not named.
-  EXPECT_NE(Outcome(r, "time_offset").status, "found");
+  EXPECT_NE(Outcome(r, "time_offset").status, CandidateStatus::kFound);
 }
 
 TEST(Diagnose, TimeOffsetNotTakenForSteeringLag) {
@@ -275,7 +275,7 @@ TEST(Diagnose, TimeOffsetNotTakenForSteeringLag) {
   const DiagnoseData data = ReadDiagnoseData(c.robot, log.path(), nullptr);
   const DiagnoseReport r = Diagnose(c.robot, data, DiagnoseOptions{}, log.path());
   ExpectFound(r, "time_offset", "offset_s", 0.01);
-  EXPECT_NE(Outcome(r, "steering_lag").status, "found");
+  EXPECT_NE(Outcome(r, "steering_lag").status, CandidateStatus::kFound);
 }
 
 TEST(Diagnose, CleanSlalomHasNoEffect) {

@@ -66,6 +66,286 @@ double Sse(const Layer& L, const std::vector<std::array<double, 2>>& pred, const
   return sum;
 }
 
+// The commands held over the wheel samples (a command lapses after its timeout), and the
+// fit / held-out blocks.
+Series CommandSeries(const RobotDescription& robot, const Track& tr, const std::vector<DriveCommand>& commands,
+                     double block_s) {
+  const std::size_t n = tr.utime.size();
+  const auto model = MakeDriveModel(robot);
+  const int nw = tr.wheels;
+  Series s;
+  s.t.resize(n);
+  s.utime = tr.utime;
+  s.speed_cmd.assign(n, {0, 0});
+  s.steer_cmd.assign(n, {0, 0});
+  s.heldout.resize(n);
+  s.chunk.resize(n);
+  std::size_t c = 0;
+  std::array<double, 2> hold_steer{tr.steer[0][0], tr.steer[0][1]};
+  for (std::size_t i = 0; i < n; ++i) {
+    s.t[i] = (tr.utime[i] - tr.utime[0]) * 1e-6;
+    s.heldout[i] = int64_t(s.t[i] / block_s) % 2 == 1;
+    s.chunk[i] = int(s.t[i]);
+    while (c < commands.size() && commands[c].utime <= tr.utime[i]) ++c;
+    if (c > 0) {
+      const DriveCommand& cmd = commands[c - 1];
+      const bool live = cmd.mode != DriveMode::kStop && tr.utime[i] - cmd.utime <= int64_t(cmd.timeout_s * 1e6);
+      if (live) {
+        const WheelSetpoint sp = cmd.mode == DriveMode::kTwist ? model->Inverse(cmd.twist) : cmd.wheels;
+        for (int w = 0; w < nw; ++w) {
+          s.speed_cmd[i][w] = sp.speed.at(w);
+          if (tr.steered[w] && w < int(sp.steer.size())) hold_steer[w] = sp.steer[w];
+        }
+      }
+    }
+    s.steer_cmd[i] = hold_steer;
+  }
+  return s;
+}
+
+// The first wheel's command's rate of change over +-5 samples (the signature's regressor).
+std::vector<double> CommandRate(const Series& s, const std::vector<std::array<double, 2>>& command) {
+  const std::size_t n = s.t.size();
+  std::vector<double> rate(n);
+  for (std::size_t i = 0; i < n; ++i) {
+    const std::size_t lo = i >= 5 ? i - 5 : 0, hi = std::min(n - 1, i + 5);
+    rate[i] = (command[hi][0] - command[lo][0]) / std::max(s.t[hi] - s.t[lo], 1e-3);
+  }
+  return rate;
+}
+
+// drive_lag. `s` and `tr` must outlive the layer.
+Layer DriveLagLayer(const Series& s, const Track& tr) {
+  const std::size_t n = tr.utime.size();
+  const int nw = tr.wheels;
+  const int k = tr.smooth_k;
+  Layer L;
+  L.name = "drive_lag", L.key = "tau_s", L.component = "speed";
+  L.regressor_words = "commanded wheel acceleration (rad/s^2)";
+  L.use = {true, nw > 1};
+  L.measured = tr.speed;
+  L.null_param = 0, L.lo = 0, L.hi = 1.0;
+  L.predict = [&s, &tr, k, n, nw](double tau) {
+    // Exact response to the held setpoint; the prediction is smoothed like the measurement.
+    std::vector<std::array<double, 2>> pos(n, {0, 0}), out(n, {0, 0});
+    std::array<double, 2> y{s.speed_cmd[0][0], s.speed_cmd[0][1]};
+    for (std::size_t i = 0; i + 1 < n; ++i) {
+      const double dt = s.t[i + 1] - s.t[i];
+      const double e = tau > 1e-6 ? std::exp(-dt / tau) : 0.0;
+      for (int w = 0; w < nw; ++w) {
+        const double u = s.speed_cmd[i][w];
+        pos[i + 1][w] = pos[i][w] + u * dt + (y[w] - u) * tau * (1 - e);
+        y[w] = u + (y[w] - u) * e;
+      }
+    }
+    for (std::size_t i = 0; i < n; ++i) {
+      const std::size_t lo = i >= std::size_t(k) ? i - k : 0, hi = std::min(n - 1, i + k);
+      for (int w = 0; w < nw; ++w) out[i][w] = (pos[hi][w] - pos[lo][w]) / (s.t[hi] - s.t[lo]);
+    }
+    (void)tr;
+    return out;
+  };
+  L.regressor = CommandRate(s, s.speed_cmd);
+  return L;
+}
+
+// steering_rate_limit, searched in log(rate). `s` and `tr` must outlive the layer.
+Layer SteeringRateLimitLayer(const Series& s, const Track& tr) {
+  const std::size_t n = tr.utime.size();
+  const int nw = tr.wheels;
+  Layer L;
+  L.name = "steering_rate_limit", L.key = "rate_rad_s", L.component = "steer";
+  L.regressor_words = "commanded steering rate (rad/s)";
+  L.use = {tr.steered[0], nw > 1 && tr.steered[1]};
+  L.measured = tr.steer;
+  L.null_param = std::log(1e6), L.lo = std::log(0.02), L.hi = std::log(50.0);
+  L.log_search = true;
+  L.plausible_sigma = 1.0;  // in log(rate)
+  L.predict = [&s, n, nw, &tr](double log_rate) {
+    const double rate = std::exp(log_rate);
+    std::vector<std::array<double, 2>> out(n, {0, 0});
+    std::array<double, 2> r{tr.steer[0][0], tr.steer[0][1]};
+    out[0] = r;
+    for (std::size_t i = 0; i + 1 < n; ++i) {
+      const double dt = s.t[i + 1] - s.t[i];
+      for (int w = 0; w < nw; ++w) r[w] += std::clamp(s.steer_cmd[i][w] - r[w], -rate * dt, rate * dt);
+      out[i + 1] = r;
+    }
+    return out;
+  };
+  L.regressor = CommandRate(s, s.steer_cmd);
+  return L;
+}
+
+// A layer fitted on the fit blocks and tested on the held-out blocks.
+struct LayerTest {
+  double est = 0;  // the parameter, in the search variable
+  std::vector<std::array<double, 2>> before, after;  // predictions without and with the effect
+  double rms_b = 0, rms_a = 0;  // held-out RMS residual without and with
+  double t = 0, p = 1, gain = 0;
+  double sigma = INFINITY;  // standard error of `est`
+};
+
+// Integrated autocorrelation time, in samples, of a residual of RMS `rms`.
+double AutocorrelationTime(const std::vector<double>& r, double rms) {
+  double tau_int = 1.0;
+  const double var = rms * rms;
+  for (std::size_t lag = 1; lag < 400 && lag < r.size() && var > 0; ++lag) {
+    double acc = 0;
+    for (std::size_t i = lag; i < r.size(); ++i) acc += r[i] * r[i - lag];
+    const double rho = acc / (r.size() - lag) / var;
+    if (rho < 0.05) break;
+    tau_int += 2 * rho;
+  }
+  return tau_int;
+}
+
+LayerTest TestLayer(const Layer& L, const Series& s) {
+  const std::size_t n = s.t.size();
+  auto fit_on = [&](const std::function<bool(std::size_t)>& keep) {
+    return GoldenMin([&](double x) { return Sse(L, L.predict(x), s, keep); }, L.lo, L.hi);
+  };
+  LayerTest out;
+  out.est = fit_on([&](std::size_t i) { return !s.heldout[i]; });
+  out.before = L.predict(L.null_param), out.after = L.predict(out.est);
+  // Test on the held-out blocks: the drop of the squared error in units of the noise left
+  // after the effect, with the samples counted as independent only once per correlation time.
+  std::vector<double> rb, ra;
+  for (std::size_t i = 0; i < n; ++i) {
+    if (!s.heldout[i]) continue;
+    for (int w = 0; w < 2; ++w) {
+      if (!L.use[w]) continue;
+      rb.push_back(L.measured[i][w] - out.before[i][w]);
+      ra.push_back(L.measured[i][w] - out.after[i][w]);
+    }
+  }
+  const double rms_b = out.rms_b = Rms(rb), rms_a = out.rms_a = Rms(ra);
+  const double tau_int = AutocorrelationTime(ra, rms_a);  // of the remaining residual, samples
+  const double sigma2 = std::max(rms_a * rms_a, 1e-300);
+  const double lr = ra.empty() ? 0.0 : (rms_b * rms_b - rms_a * rms_a) * ra.size() / sigma2 / tau_int;
+  out.t = lr > 0 ? std::sqrt(lr) : 0.0;
+  out.p = ChiSquareUpperTail(lr, 1);
+  out.gain = rms_b > 0 ? 1 - rms_a / rms_b : 0.0;
+  // Standard error from the curvature of the fit blocks' squared error (Gauss-Newton),
+  // inflated by the correlation time.
+  auto keep = [&](std::size_t i) { return !s.heldout[i]; };
+  const double h = L.log_search ? 0.05 : 0.005;
+  const double f0 = Sse(L, L.predict(out.est), s, keep);
+  const double fp = Sse(L, L.predict(out.est + h), s, keep), fm = Sse(L, L.predict(std::max(out.est - h, L.lo)), s, keep);
+  const double curvature = (fp - 2 * f0 + fm) / (h * h);  // = 2 sum J^2
+  if (curvature > 0) out.sigma = std::sqrt(2.0 * sigma2 * tau_int / curvature);
+  return out;
+}
+
+// The candidate's outcome (`o`); whether the effect is found.
+bool JudgeLayer(const Layer& L, const LayerTest& test, int m, double alpha, double alpha_share,
+                CandidateOutcome* o) {
+  const double value = L.log_search ? std::exp(test.est) : test.est;
+  const double value_std = L.log_search ? value * test.sigma : test.sigma;
+  o->name = L.name, o->layer = "actuation";
+  o->estimate = {value, value_std};
+  o->p_value = test.p;
+  o->p_adjusted = std::min(1.0, test.p * m * alpha / std::max(alpha_share, 1e-300));
+  o->detectable = (NormalUpper(alpha_share / m) + NormalUpper(0.2)) * value_std;
+  const bool at_null_edge = L.log_search && test.est > L.hi - 0.5;  // no limit inside the searched range
+  const bool significant = test.p * m < alpha_share && test.gain > kMinGain && !at_null_edge;
+  if (significant) {
+    o->status = CandidateStatus::kFound;
+  } else if (!(test.sigma < L.plausible_sigma) || at_null_edge) {
+    o->status = CandidateStatus::kNotIdentifiable;
+    if (L.log_search) {
+      double max_rate = 0;
+      for (double r : L.regressor) max_rate = std::max(max_rate, std::abs(r));
+      std::ostringstream note;
+      note.precision(3);
+      note << "steering was never commanded faster than " << max_rate
+           << " rad/s; a limit above that cannot show: command faster steering steps";
+      o->note = note.str();
+    } else {
+      o->note = "the commanded speed hardly changes: command speed steps";
+    }
+  } else {
+    o->status = CandidateStatus::kNotSignificant;
+  }
+  return significant;
+}
+
+// The wheel a layer's trace, spans and signature show.
+int ShownWheel(const Layer& L) { return L.use[0] ? 0 : 1; }
+
+// Every fifth sample: measured, and predicted without and (when found) with the effect.
+DiagnoseReport::Trace LayerTrace(const RobotDescription& robot, const Layer& L, const Series& s,
+                                 const LayerTest& test, bool significant) {
+  DiagnoseReport::Trace trace;
+  const int w0 = ShownWheel(L);
+  trace.name = L.component + " " + WheelRoles(robot.drive)[w0];
+  for (std::size_t i = 0; i < s.t.size(); i += 5) {
+    trace.utime.push_back(s.utime[i]);
+    trace.measured.push_back(L.measured[i][w0]);
+    trace.before.push_back(test.before[i][w0]);
+    trace.after.push_back(significant ? test.after[i][w0] : test.before[i][w0]);
+  }
+  return trace;
+}
+
+// Signature: quantile bins of the regressor `x`, the residuals before and after.
+std::vector<SignatureBin> QuantileSignature(const std::vector<double>& x, const std::vector<double>& eb,
+                                            const std::vector<double>& ea) {
+  std::vector<SignatureBin> bins;
+  std::vector<std::size_t> order(x.size());
+  std::iota(order.begin(), order.end(), 0);
+  std::sort(order.begin(), order.end(), [&](std::size_t a, std::size_t b) { return x[a] < x[b]; });
+  const int nb = 10;
+  for (int b = 0; b < nb; ++b) {
+    SignatureBin bin;
+    double sx = 0, sb = 0, sa = 0, sa2 = 0;
+    for (std::size_t r = order.size() * b / nb; r < order.size() * (b + 1) / nb; ++r) {
+      const std::size_t i = order[r];
+      ++bin.count, sx += x[i], sb += eb[i], sa += ea[i], sa2 += ea[i] * ea[i];
+    }
+    if (bin.count < 3) continue;
+    bin.x = sx / bin.count, bin.before = sb / bin.count, bin.after = sa / bin.count;
+    bin.std_error = std::sqrt(std::max(sa2 / bin.count - bin.after * bin.after, 0.0) / bin.count);
+    bins.push_back(bin);
+  }
+  return bins;
+}
+
+// A found actuation effect: where it acts, its held-out figures and its signature.
+FoundEffect DescribeLayer(const Layer& L, const Series& s, const LayerTest& test, const CandidateOutcome& o) {
+  const std::size_t n = s.t.size();
+  FoundEffect fe;
+  fe.name = L.name, fe.layer = "actuation", fe.component = L.component;
+  fe.params[L.key] = o.estimate;
+  fe.wald = test.t * test.t, fe.p_value = test.p, fe.p_adjusted = o.p_adjusted;
+  fe.delta_bic = 0;
+  fe.regressor = L.regressor_words;
+  // Where the effect changes the prediction by more than the noise left after it.
+  const double noise = test.rms_a;
+  const int w0 = ShownWheel(L);
+  std::vector<TimeSpan> spans;
+  std::vector<double> in_b, in_a, x, eb, ea;
+  for (std::size_t i = 0; i < n; ++i) {
+    const double diff = std::abs(test.after[i][w0] - test.before[i][w0]);
+    const bool flagged = diff > 2 * noise;
+    if (flagged) spans.push_back({s.utime[i], s.utime[std::min(i + 1, n - 1)]});
+    if (flagged && s.heldout[i]) {
+      in_b.push_back(L.measured[i][w0] - test.before[i][w0]);
+      in_a.push_back(L.measured[i][w0] - test.after[i][w0]);
+    }
+    x.push_back(L.regressor[i]);
+    eb.push_back(L.measured[i][w0] - test.before[i][w0]);
+    ea.push_back(L.measured[i][w0] - test.after[i][w0]);
+  }
+  fe.where = MergeSpans(spans, 500000);
+  fe.heldout_rms_before = Rms(in_b), fe.heldout_rms_after = Rms(in_a);
+  fe.heldout_rms_all_before = test.rms_b, fe.heldout_rms_all_after = test.rms_a;
+  fe.signature = QuantileSignature(x, eb, ea);
+  fe.regime = L.name == "drive_lag" ? "while the commanded speed changes (starts, stops, speed steps)"
+                                    : "during fast steering commands";
+  return fe;
+}
+
 }  // namespace
 
 int ActuationCandidates(const RobotDescription& robot, const DiagnoseData& data) {
@@ -81,239 +361,17 @@ void DiagnoseActuation(const RobotDescription& robot, const DiagnoseData& data,
     return;
   }
   const Track tr = MakeTrack(robot, data.wheels);
-  const std::size_t n = tr.utime.size();
-  const auto model = MakeDriveModel(robot);
-  const int nw = tr.wheels;
-  Series s;
-  s.t.resize(n);
-  s.utime = tr.utime;
-  s.speed_cmd.assign(n, {0, 0});
-  s.steer_cmd.assign(n, {0, 0});
-  s.heldout.resize(n);
-  s.chunk.resize(n);
-  std::size_t c = 0;
-  std::array<double, 2> hold_steer{tr.steer[0][0], tr.steer[0][1]};
-  for (std::size_t i = 0; i < n; ++i) {
-    s.t[i] = (tr.utime[i] - tr.utime[0]) * 1e-6;
-    s.heldout[i] = int64_t(s.t[i] / options.block_s) % 2 == 1;
-    s.chunk[i] = int(s.t[i]);
-    while (c < data.commands.size() && data.commands[c].utime <= tr.utime[i]) ++c;
-    if (c > 0) {
-      const DriveCommand& cmd = data.commands[c - 1];
-      const bool live = cmd.mode != DriveMode::kStop && tr.utime[i] - cmd.utime <= int64_t(cmd.timeout_s * 1e6);
-      if (live) {
-        const WheelSetpoint sp = cmd.mode == DriveMode::kTwist ? model->Inverse(cmd.twist) : cmd.wheels;
-        for (int w = 0; w < nw; ++w) {
-          s.speed_cmd[i][w] = sp.speed.at(w);
-          if (tr.steered[w] && w < int(sp.steer.size())) hold_steer[w] = sp.steer[w];
-        }
-      }
-    }
-    s.steer_cmd[i] = hold_steer;
-  }
-  const int k = tr.smooth_k;
-
+  const Series s = CommandSeries(robot, tr, data.commands, options.block_s);
   std::vector<Layer> layers;
-  {  // drive_lag
-    Layer L;
-    L.name = "drive_lag", L.key = "tau_s", L.component = "speed";
-    L.regressor_words = "commanded wheel acceleration (rad/s^2)";
-    L.use = {true, nw > 1};
-    L.measured = tr.speed;
-    L.null_param = 0, L.lo = 0, L.hi = 1.0;
-    L.predict = [&s, &tr, k, n, nw](double tau) {
-      // Exact response to the held setpoint; the prediction is smoothed like the measurement.
-      std::vector<std::array<double, 2>> pos(n, {0, 0}), out(n, {0, 0});
-      std::array<double, 2> y{s.speed_cmd[0][0], s.speed_cmd[0][1]};
-      for (std::size_t i = 0; i + 1 < n; ++i) {
-        const double dt = s.t[i + 1] - s.t[i];
-        const double e = tau > 1e-6 ? std::exp(-dt / tau) : 0.0;
-        for (int w = 0; w < nw; ++w) {
-          const double u = s.speed_cmd[i][w];
-          pos[i + 1][w] = pos[i][w] + u * dt + (y[w] - u) * tau * (1 - e);
-          y[w] = u + (y[w] - u) * e;
-        }
-      }
-      for (std::size_t i = 0; i < n; ++i) {
-        const std::size_t lo = i >= std::size_t(k) ? i - k : 0, hi = std::min(n - 1, i + k);
-        for (int w = 0; w < nw; ++w) out[i][w] = (pos[hi][w] - pos[lo][w]) / (s.t[hi] - s.t[lo]);
-      }
-      (void)tr;
-      return out;
-    };
-    L.regressor.resize(n);
-    for (std::size_t i = 0; i < n; ++i) {
-      const std::size_t lo = i >= 5 ? i - 5 : 0, hi = std::min(n - 1, i + 5);
-      L.regressor[i] = (s.speed_cmd[hi][0] - s.speed_cmd[lo][0]) / std::max(s.t[hi] - s.t[lo], 1e-3);
-    }
-    layers.push_back(std::move(L));
-  }
-  if (m > 1) {  // steering_rate_limit, searched in log(rate)
-    Layer L;
-    L.name = "steering_rate_limit", L.key = "rate_rad_s", L.component = "steer";
-    L.regressor_words = "commanded steering rate (rad/s)";
-    L.use = {tr.steered[0], nw > 1 && tr.steered[1]};
-    L.measured = tr.steer;
-    L.null_param = std::log(1e6), L.lo = std::log(0.02), L.hi = std::log(50.0);
-    L.log_search = true;
-    L.plausible_sigma = 1.0;  // in log(rate)
-    L.predict = [&s, n, nw, &tr](double log_rate) {
-      const double rate = std::exp(log_rate);
-      std::vector<std::array<double, 2>> out(n, {0, 0});
-      std::array<double, 2> r{tr.steer[0][0], tr.steer[0][1]};
-      out[0] = r;
-      for (std::size_t i = 0; i + 1 < n; ++i) {
-        const double dt = s.t[i + 1] - s.t[i];
-        for (int w = 0; w < nw; ++w) r[w] += std::clamp(s.steer_cmd[i][w] - r[w], -rate * dt, rate * dt);
-        out[i + 1] = r;
-      }
-      return out;
-    };
-    L.regressor.resize(n);
-    for (std::size_t i = 0; i < n; ++i) {
-      const std::size_t lo = i >= 5 ? i - 5 : 0, hi = std::min(n - 1, i + 5);
-      L.regressor[i] = (s.steer_cmd[hi][0] - s.steer_cmd[lo][0]) / std::max(s.t[hi] - s.t[lo], 1e-3);
-    }
-    layers.push_back(std::move(L));
-  }
-
-  for (Layer& L : layers) {
-    auto fit_on = [&](const std::function<bool(std::size_t)>& keep) {
-      return GoldenMin([&](double x) { return Sse(L, L.predict(x), s, keep); }, L.lo, L.hi);
-    };
-    const double est = fit_on([&](std::size_t i) { return !s.heldout[i]; });
-    const auto before = L.predict(L.null_param), after = L.predict(est);
-    // Test on the held-out blocks: the drop of the squared error in units of the noise left
-    // after the effect, with the samples counted as independent only once per correlation time.
-    std::vector<double> rb, ra;
-    for (std::size_t i = 0; i < n; ++i) {
-      if (!s.heldout[i]) continue;
-      for (int w = 0; w < 2; ++w) {
-        if (!L.use[w]) continue;
-        rb.push_back(L.measured[i][w] - before[i][w]);
-        ra.push_back(L.measured[i][w] - after[i][w]);
-      }
-    }
-    auto rms = [](const std::vector<double>& v) {
-      double q = 0;
-      for (double x : v) q += x * x;
-      return v.empty() ? 0.0 : std::sqrt(q / v.size());
-    };
-    const double rms_b = rms(rb), rms_a = rms(ra);
-    double tau_int = 1.0;  // integrated autocorrelation time of the remaining residual, samples
-    {
-      const double var = rms_a * rms_a;
-      for (std::size_t lag = 1; lag < 400 && lag < ra.size() && var > 0; ++lag) {
-        double acc = 0;
-        for (std::size_t i = lag; i < ra.size(); ++i) acc += ra[i] * ra[i - lag];
-        const double rho = acc / (ra.size() - lag) / var;
-        if (rho < 0.05) break;
-        tau_int += 2 * rho;
-      }
-    }
-    const double sigma2 = std::max(rms_a * rms_a, 1e-300);
-    const double lr = ra.empty() ? 0.0 : (rms_b * rms_b - rms_a * rms_a) * ra.size() / sigma2 / tau_int;
-    const double t = lr > 0 ? std::sqrt(lr) : 0.0;
-    const double p = ChiSquareUpperTail(lr, 1);
-    const double gain = rms_b > 0 ? 1 - rms_a / rms_b : 0.0;
-    // Standard error from the curvature of the fit blocks' squared error (Gauss-Newton),
-    // inflated by the correlation time.
-    double sigma = INFINITY;
-    {
-      auto keep = [&](std::size_t i) { return !s.heldout[i]; };
-      const double h = L.log_search ? 0.05 : 0.005;
-      const double f0 = Sse(L, L.predict(est), s, keep);
-      const double fp = Sse(L, L.predict(est + h), s, keep), fm = Sse(L, L.predict(std::max(est - h, L.lo)), s, keep);
-      const double curvature = (fp - 2 * f0 + fm) / (h * h);  // = 2 sum J^2
-      if (curvature > 0) sigma = std::sqrt(2.0 * sigma2 * tau_int / curvature);
-    }
-    const double value = L.log_search ? std::exp(est) : est;
-    const double value_std = L.log_search ? value * sigma : sigma;
+  layers.push_back(DriveLagLayer(s, tr));
+  if (m > 1) layers.push_back(SteeringRateLimitLayer(s, tr));
+  for (const Layer& L : layers) {
+    const LayerTest test = TestLayer(L, s);
     CandidateOutcome o;
-    o.name = L.name, o.layer = "actuation";
-    o.estimate = {value, value_std};
-    o.p_value = p;
-    o.p_adjusted = std::min(1.0, p * m * options.alpha / std::max(alpha_share, 1e-300));
-    o.detectable = (NormalUpper(alpha_share / m) + NormalUpper(0.2)) * value_std;
-    const bool at_null_edge = L.log_search && est > L.hi - 0.5;  // no limit inside the searched range
-    const bool significant = p * m < alpha_share && gain > kMinGain && !at_null_edge;
-    if (significant) {
-      o.status = "found";
-    } else if (!(sigma < L.plausible_sigma) || at_null_edge) {
-      o.status = "not_identifiable";
-      if (L.log_search) {
-        double max_rate = 0;
-        for (double r : L.regressor) max_rate = std::max(max_rate, std::abs(r));
-        std::ostringstream note;
-        note.precision(3);
-        note << "steering was never commanded faster than " << max_rate
-             << " rad/s; a limit above that cannot show: command faster steering steps";
-        o.note = note.str();
-      } else {
-        o.note = "the commanded speed hardly changes: command speed steps";
-      }
-    } else {
-      o.status = "not_significant";
-    }
+    const bool significant = JudgeLayer(L, test, m, options.alpha, alpha_share, &o);
     report->candidates.push_back(o);
-
-    DiagnoseReport::Trace trace;
-    trace.name = L.component + " " + WheelRoles(robot.drive)[L.use[0] ? 0 : 1];
-    const int w0 = L.use[0] ? 0 : 1;
-    for (std::size_t i = 0; i < n; i += 5) {
-      trace.utime.push_back(s.utime[i]);
-      trace.measured.push_back(L.measured[i][w0]);
-      trace.before.push_back(before[i][w0]);
-      trace.after.push_back(significant ? after[i][w0] : before[i][w0]);
-    }
-    report->actuation.push_back(std::move(trace));
-    if (!significant) continue;
-
-    FoundEffect fe;
-    fe.name = L.name, fe.layer = "actuation", fe.component = L.component;
-    fe.params[L.key] = {value, value_std};
-    fe.wald = t * t, fe.p_value = p, fe.p_adjusted = o.p_adjusted;
-    fe.delta_bic = 0;
-    fe.regressor = L.regressor_words;
-    // Where the effect changes the prediction by more than the noise left after it.
-    const double noise = rms_a;
-    std::vector<TimeSpan> spans;
-    std::vector<double> in_b, in_a, x, eb, ea;
-    for (std::size_t i = 0; i < n; ++i) {
-      const double diff = std::abs(after[i][w0] - before[i][w0]);
-      const bool flagged = diff > 2 * noise;
-      if (flagged) spans.push_back({s.utime[i], s.utime[std::min(i + 1, n - 1)]});
-      if (flagged && s.heldout[i]) {
-        in_b.push_back(L.measured[i][w0] - before[i][w0]);
-        in_a.push_back(L.measured[i][w0] - after[i][w0]);
-      }
-      x.push_back(L.regressor[i]);
-      eb.push_back(L.measured[i][w0] - before[i][w0]);
-      ea.push_back(L.measured[i][w0] - after[i][w0]);
-    }
-    fe.where = MergeSpans(spans, 500000);
-    fe.heldout_rms_before = rms(in_b), fe.heldout_rms_after = rms(in_a);
-    fe.heldout_rms_all_before = rms_b, fe.heldout_rms_all_after = rms_a;
-    // Signature: quantile bins of the regressor.
-    std::vector<std::size_t> order(x.size());
-    std::iota(order.begin(), order.end(), 0);
-    std::sort(order.begin(), order.end(), [&](std::size_t a, std::size_t b) { return x[a] < x[b]; });
-    const int nb = 10;
-    for (int b = 0; b < nb; ++b) {
-      SignatureBin bin;
-      double sx = 0, sb = 0, sa = 0, sa2 = 0;
-      for (std::size_t r = order.size() * b / nb; r < order.size() * (b + 1) / nb; ++r) {
-        const std::size_t i = order[r];
-        ++bin.count, sx += x[i], sb += eb[i], sa += ea[i], sa2 += ea[i] * ea[i];
-      }
-      if (bin.count < 3) continue;
-      bin.x = sx / bin.count, bin.before = sb / bin.count, bin.after = sa / bin.count;
-      bin.std_error = std::sqrt(std::max(sa2 / bin.count - bin.after * bin.after, 0.0) / bin.count);
-      fe.signature.push_back(bin);
-    }
-    fe.regime = L.name == "drive_lag" ? "while the commanded speed changes (starts, stops, speed steps)"
-                                      : "during fast steering commands";
-    report->effects.push_back(std::move(fe));
+    report->actuation.push_back(LayerTrace(robot, L, s, test, significant));
+    if (significant) report->effects.push_back(DescribeLayer(L, s, test, o));
   }
 }
 

@@ -22,6 +22,9 @@ inline double NormalUpper(double p) {
 // Holm's step-down adjustment of p-values (same order as given).
 std::vector<double> HolmAdjust(const std::vector<double>& p);
 
+// Root mean square (0 for none).
+double Rms(const std::vector<double>& v);
+
 // Merges the times of flagged intervals into spans (gaps up to `gap_us` bridged).
 std::vector<TimeSpan> MergeSpans(std::vector<TimeSpan> flagged, int64_t gap_us);
 

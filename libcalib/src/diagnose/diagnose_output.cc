@@ -41,6 +41,17 @@ const char* Unit(const std::string& component) {
 
 }  // namespace
 
+const char* CandidateStatusName(CandidateStatus status) {
+  switch (status) {
+    case CandidateStatus::kFound: return "found";
+    case CandidateStatus::kNotSignificant: return "not_significant";
+    case CandidateStatus::kNotIdentifiable: return "not_identifiable";
+    case CandidateStatus::kIndistinguishable: return "indistinguishable";
+    case CandidateStatus::kRejected: return "rejected";
+  }
+  return "not_significant";
+}
+
 std::string DiagnoseReportJson(const DiagnoseReport& r) {
   nlohmann::json j;
   j["verdict"] = r.verdict;
@@ -88,7 +99,7 @@ std::string DiagnoseReportJson(const DiagnoseReport& r) {
                                       {"separating_motion", d.motion}});
   j["candidates"] = nlohmann::json::array();
   for (const CandidateOutcome& c : r.candidates) {
-    nlohmann::json jc = {{"name", c.name}, {"layer", c.layer}, {"status", c.status},
+    nlohmann::json jc = {{"name", c.name}, {"layer", c.layer}, {"status", CandidateStatusName(c.status)},
                          {"estimate", {{"value", Number(c.estimate.value)}, {"std", Number(c.estimate.std)}}},
                          {"p_value", Number(c.p_adjusted)}, {"delta_bic", Number(c.delta_bic)},
                          {"detectable", Number(c.detectable)}};
@@ -168,7 +179,7 @@ std::string DiagnoseSummaryText(const DiagnoseReport& r) {
       << "); to tell them apart drive " << d.motion << ".\n";
   bool header = false;
   for (const CandidateOutcome& c : r.candidates) {
-    if (c.status != "not_identifiable") continue;
+    if (c.status != CandidateStatus::kNotIdentifiable) continue;
     if (!header) s << "\nNot identifiable with this recording (neither found nor ruled out):\n";
     header = true;
     s << "  " << c.name << (c.wheel.empty() ? "" : " (" + c.wheel + ")") << ": " << c.note << "\n";

@@ -151,10 +151,20 @@ struct FoundEffect {
   std::vector<SignatureBin> signature;
 };
 
+// What became of a candidate. Written out (REPORT.json, summary) by CandidateStatusName.
+enum class CandidateStatus {
+  kFound,              // "found"
+  kNotSignificant,     // "not_significant"
+  kNotIdentifiable,    // "not_identifiable": its minimum detectable size exceeds any plausible size
+  kIndistinguishable,  // "indistinguishable": from its confusable look-alike
+  kRejected,           // "rejected": significant alone, explained by the effects found
+};
+const char* CandidateStatusName(CandidateStatus status);
+
 // Every candidate tested, with its outcome.
 struct CandidateOutcome {
   std::string name, layer, wheel;
-  std::string status;  // found, not_significant, not_identifiable, indistinguishable, rejected
+  CandidateStatus status = CandidateStatus::kNotSignificant;
   ParamEstimate estimate;
   double p_value = 1, p_adjusted = 1, delta_bic = 0;
   double detectable = 0;  // minimum detectable size (alpha, power 0.8) with this recording

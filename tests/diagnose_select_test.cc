@@ -1,0 +1,334 @@
+// The diagnosis's selection steps (calib/diagnose/selection.h) on figures given directly:
+// the single-candidate tests, the confusable pairs, forward selection, backward
+// elimination and the held-out confirmation, with the fits of a recording replaced by a
+// table of test results keyed by the model they are tested in.
+
+#include <gtest/gtest.h>
+
+#include <map>
+#include <ostream>
+#include <set>
+#include <string>
+#include <utility>
+#include <vector>
+
+#include "calib/diagnose/diagnose.h"
+#include "calib/diagnose/selection.h"
+
+namespace calib {
+
+void PrintTo(CandidateStatus status, std::ostream* os) { *os << CandidateStatusName(status); }
+
+namespace diag {
+namespace {
+
+using Model = std::set<int>;  // the candidates in the current model
+
+// Tabulated fits. A test not in the table fails (p = 1); every one is confirmed on the
+// held-out blocks unless listed as unconfirmed.
+class TableFits : public SelectionFits {
+ public:
+  std::map<std::pair<Model, int>, StepTest> add;   // (model before, candidate added)
+  std::map<std::pair<Model, int>, StepTest> keep;  // (the others, candidate kept)
+  std::set<std::pair<Model, int>> add_unconfirmed, keep_unconfirmed;
+  std::vector<Model> pair_members;
+  std::vector<bool> pair_confirmed;
+  std::map<std::pair<int, int>, LookAlikeFit> look_alike;  // (x, y)
+  Model model;
+
+  bool PairConfirmed(int k) override { return pair_confirmed.at(k); }
+  void StartFromPair(int k) override { model = pair_members.at(k); }
+  StepTest TryAdd(int j) override { return Find(add, {model, j}); }
+  bool AddConfirmed(int j) override { return add_unconfirmed.count({model, j}) == 0; }
+  void Add(int j) override { model.insert(j); }
+  StepTest TryKeep(int j) override { return Find(keep, {Others(j), j}); }
+  bool KeepConfirmed(int j) override { return keep_unconfirmed.count({Others(j), j}) == 0; }
+  void Drop(int j) override { model.erase(j); }
+  LookAlikeFit FitLookAlike(int x, int y) override { return look_alike.at({x, y}); }
+
+ private:
+  static StepTest Find(const std::map<std::pair<Model, int>, StepTest>& table, const std::pair<Model, int>& key) {
+    const auto it = table.find(key);
+    return it == table.end() ? StepTest{} : it->second;
+  }
+  Model Others(int j) const {
+    Model others = model;
+    others.erase(j);
+    return others;
+  }
+};
+
+SelectionLevels Levels(int candidates, int actuation = 0) {
+  SelectionLevels levels;
+  levels.candidates = candidates;
+  levels.actuation_candidates = actuation;
+  levels.alpha = 0.01 * candidates / double(candidates + actuation);
+  return levels;
+}
+
+SingleFit Single(const std::string& name, double p, double delta_bic, bool confirmed) {
+  SingleFit f;
+  f.name = name;
+  f.layer = "odometry";
+  f.p = p;
+  f.delta_bic = delta_bic;
+  f.estimate = {0.02, 0.002};
+  f.plausible = 0.05;
+  f.excitation = "fast turns";
+  f.heldout_confirmed = confirmed;
+  return f;
+}
+
+std::vector<CandidateOutcome> Outcomes(const std::vector<std::string>& names) {
+  std::vector<CandidateOutcome> out(names.size());
+  for (std::size_t j = 0; j < names.size(); ++j) out[j].name = names[j];
+  return out;
+}
+
+// The single verdicts of candidates `names`: those marked significant eligible (significant,
+// paying in BIC, confirmed on the held-out blocks), the others not significant.
+SingleVerdicts Judged(const std::vector<std::string>& names, const std::vector<bool>& significant) {
+  std::vector<SingleFit> fits;
+  for (std::size_t j = 0; j < names.size(); ++j)
+    fits.push_back(Single(names[j], significant[j] ? 1e-9 : 0.5, significant[j] ? -20 : 2, true));
+  return JudgeSingles(fits, Levels(static_cast<int>(names.size())));
+}
+
+StepTest Passes(double wald) { return {1e-6, wald, -10.0}; }
+
+const std::vector<ConfusablePair> kPairs = {{"time_offset", "steering_lag", "speed changes while driving straight"}};
+
+TEST(DiagnoseSelect, SignificantConfirmedSingleIsEligible) {
+  const SelectionLevels levels = Levels(2);
+  const SingleVerdicts v = JudgeSingles({Single("lateral_slip", 1e-6, -12, true), Single("time_offset", 0.5, 2, true)},
+                                        levels);
+  EXPECT_EQ(v.eligible, std::vector<bool>({true, false}));
+  EXPECT_EQ(v.outcomes[0].note, "");
+  EXPECT_DOUBLE_EQ(v.outcomes[0].p_adjusted, 2e-6);  // Holm over two
+  EXPECT_EQ(v.outcomes[0].status, CandidateStatus::kRejected);  // until the selection chooses it
+  EXPECT_EQ(v.outcomes[1].status, CandidateStatus::kNotSignificant);
+  EXPECT_NEAR(DetectableZ(levels), 3.649, 0.001);  // z(0.0025) + z(0.2)
+  EXPECT_DOUBLE_EQ(v.outcomes[1].detectable, DetectableZ(levels) * 0.002);
+}
+
+TEST(DiagnoseSelect, HolmAdjustsOverTheWholeCatalogue) {
+  // Two candidates here and one actuation candidate: these two share 2/3 of alpha. Each is
+  // below that share alone, neither after Holm's correction; the adjusted p-values written
+  // out are Holm's scaled to the whole catalogue.
+  const SingleVerdicts v = JudgeSingles({Single("a", 0.004, -5, true), Single("b", 0.005, -5, true)}, Levels(2, 1));
+  EXPECT_EQ(v.eligible, std::vector<bool>({false, false}));
+  EXPECT_DOUBLE_EQ(v.outcomes[0].p_adjusted, 0.008 * 3 / 2);  // Holm: 2 * 0.004
+  EXPECT_DOUBLE_EQ(v.outcomes[1].p_adjusted, 0.008 * 3 / 2);  // Holm: 2 * 0.004
+  const SingleVerdicts w = JudgeSingles({Single("a", 0.001, -5, true), Single("b", 0.005, -5, true)}, Levels(2, 1));
+  EXPECT_EQ(w.eligible, std::vector<bool>({true, true}));
+  EXPECT_DOUBLE_EQ(w.outcomes[0].p_adjusted, 0.002 * 3 / 2);
+  EXPECT_DOUBLE_EQ(w.outcomes[1].p_adjusted, 0.005 * 3 / 2);
+}
+
+TEST(DiagnoseSelect, SignificantSingleThatDoesNotPayIsNotEligibleWithItsReason) {
+  const SingleVerdicts v = JudgeSingles({Single("steering_lag", 1e-8, 3.5, true)}, Levels(1));
+  EXPECT_FALSE(v.eligible[0]);
+  EXPECT_EQ(v.outcomes[0].status, CandidateStatus::kNotSignificant);
+  EXPECT_EQ(v.outcomes[0].note,
+            "significant by its Wald statistic but the fit does not pay for its parameter (delta BIC 3.5)");
+}
+
+TEST(DiagnoseSelect, SignificantSingleNotConfirmedOnHeldOutIsNotEligible) {
+  SingleFit f = Single("time_offset", 1e-8, -20, false);
+  f.heldout_gain = 0.001, f.span_gain = -0.02;
+  const SingleVerdicts v = JudgeSingles({f}, Levels(1));
+  EXPECT_FALSE(v.eligible[0]);
+  EXPECT_EQ(v.outcomes[0].note,
+            "significant on the fit blocks but not confirmed on the held-out blocks (held-out chi2 -0.1 % change, "
+            "residual 2 % where it would act)");
+}
+
+TEST(DiagnoseSelect, UndetectableSingleIsNotIdentifiable) {
+  SingleFit f = Single("lateral_slip", 0.3, 1, true);
+  f.estimate.std = 0.05;  // detectable above 0.18: more than a plausible 0.05
+  const SingleVerdicts v = JudgeSingles({f}, Levels(1));
+  EXPECT_EQ(v.outcomes[0].status, CandidateStatus::kNotIdentifiable);
+  EXPECT_EQ(v.outcomes[0].note.rfind("this recording could only detect it above ", 0), 0u);
+  EXPECT_NE(v.outcomes[0].note.find("; drive fast turns"), std::string::npos);
+}
+
+TEST(DiagnoseSelect, PairMembersDetectableWithTheirLookAlike) {
+  const SelectionLevels levels = Levels(2);
+  PairFit pf;
+  pf.pair = &kPairs[0], pf.a = 0, pf.b = 1, pf.var_a = 4e-6, pf.var_b = 9e-6;
+  std::vector<CandidateOutcome> out = Outcomes({"time_offset", "steering_lag"});
+  NoteDetectableWith({pf}, levels, &out);
+  EXPECT_DOUBLE_EQ(out[0].detectable_with.at("steering_lag"), DetectableZ(levels) * 0.002);
+  EXPECT_DOUBLE_EQ(out[1].detectable_with.at("time_offset"), DetectableZ(levels) * 0.003);
+}
+
+TEST(DiagnoseSelect, SignificantSingleIsFound) {
+  TableFits fits;
+  fits.add[{{}, 0}] = Passes(30);
+  fits.keep[{{}, 0}] = {2e-6, 28, 0};
+  SingleVerdicts v = Judged({"lateral_slip", "time_offset"}, {true, false});
+  const std::vector<CandidateOutcome>& out = v.outcomes;
+  std::vector<Indistinguishable> indist;
+  const Selection s = SelectEffects(kPairs, {}, v.eligible, Levels(2), &fits, &v.outcomes, &indist);
+  EXPECT_EQ(s.chosen, std::vector<int>({0}));
+  EXPECT_EQ(s.p, std::vector<double>({2e-6}));  // its test given the others, from the backward check
+  EXPECT_EQ(s.wald, std::vector<double>({28}));
+  EXPECT_EQ(out[0].status, CandidateStatus::kFound);
+  EXPECT_EQ(out[0].note, "");
+  EXPECT_EQ(out[1].status, CandidateStatus::kNotSignificant);
+  EXPECT_TRUE(indist.empty());
+}
+
+TEST(DiagnoseSelect, ForwardTakesTheLargestWaldFirstThenTestsAllGivenIt) {
+  TableFits fits;
+  fits.add[{{}, 0}] = Passes(20);
+  fits.add[{{}, 1}] = Passes(25);
+  fits.add[{{1}, 2}] = Passes(15);  // not eligible alone, significant given 1
+  fits.keep[{{2}, 1}] = Passes(24);
+  fits.keep[{{1}, 2}] = Passes(15);
+  SingleVerdicts v = Judged({"a", "b", "c"}, {true, true, false});
+  const std::vector<CandidateOutcome>& out = v.outcomes;
+  std::vector<Indistinguishable> indist;
+  const Selection s = SelectEffects(kPairs, {}, v.eligible, Levels(3), &fits, &v.outcomes, &indist);
+  EXPECT_EQ(s.chosen, std::vector<int>({1, 2}));
+  EXPECT_EQ(fits.model, Model({1, 2}));
+  EXPECT_EQ(out[1].status, CandidateStatus::kFound);
+  EXPECT_EQ(out[2].status, CandidateStatus::kFound);
+  EXPECT_EQ(out[2].note, "significant given the other effects found");
+  EXPECT_EQ(out[0].status, CandidateStatus::kRejected);  // eligible alone, not given b
+}
+
+TEST(DiagnoseSelect, ForwardRejectsACandidateThatDoesNotPayForItsParameter) {
+  TableFits fits;
+  fits.add[{{}, 0}] = {1e-6, 30, 1.5};  // significant, BIC higher with it
+  Selection s;
+  SelectForward({true}, Levels(1), &fits, &s);
+  EXPECT_TRUE(s.chosen.empty());
+}
+
+TEST(DiagnoseSelect, HeldOutConfirmationRejectsACandidateWhoseHeldOutErrorDoesNotImprove) {
+  TableFits fits;
+  fits.add[{{}, 0}] = Passes(30);
+  fits.add_unconfirmed.insert({{}, 0});
+  fits.add[{{}, 1}] = Passes(10);
+  fits.keep[{{}, 1}] = Passes(10);
+  SingleVerdicts v = Judged({"steering_lag", "lateral_slip"}, {true, true});
+  const std::vector<CandidateOutcome>& out = v.outcomes;
+  std::vector<Indistinguishable> indist;
+  const Selection s = SelectEffects(kPairs, {}, v.eligible, Levels(2), &fits, &v.outcomes, &indist);
+  EXPECT_EQ(s.chosen, std::vector<int>({1}));  // 0 has the larger Wald statistic, but is not confirmed
+  EXPECT_EQ(out[0].status, CandidateStatus::kRejected);
+  EXPECT_EQ(out[1].status, CandidateStatus::kFound);
+}
+
+TEST(DiagnoseSelect, BackwardEliminationDropsARedundantCandidate) {
+  TableFits fits;
+  fits.add[{{}, 0}] = Passes(30);
+  fits.add[{{0}, 1}] = Passes(20);
+  fits.keep[{{1}, 0}] = {0.3, 1, 0};  // explained by 1
+  fits.keep[{{}, 1}] = {1e-7, 35, 0};
+  SingleVerdicts v = Judged({"longitudinal_slip", "time_offset"}, {true, true});
+  const std::vector<CandidateOutcome>& out = v.outcomes;
+  std::vector<Indistinguishable> indist;
+  const Selection s = SelectEffects({}, {}, v.eligible, Levels(2), &fits, &v.outcomes, &indist);
+  EXPECT_EQ(s.chosen, std::vector<int>({1}));
+  EXPECT_EQ(s.p, std::vector<double>({1e-7}));
+  EXPECT_EQ(s.wald, std::vector<double>({35}));
+  EXPECT_EQ(fits.model, Model({1}));
+  EXPECT_EQ(out[0].status, CandidateStatus::kRejected);
+  EXPECT_EQ(out[0].note, "explained by the other effects found");
+  EXPECT_EQ(out[1].status, CandidateStatus::kFound);
+}
+
+TEST(DiagnoseSelect, BackwardEliminationDropsOneNotConfirmedGivenTheOthers) {
+  TableFits fits;
+  fits.model = {0, 1};
+  fits.keep[{{1}, 0}] = Passes(30);
+  fits.keep_unconfirmed.insert({{1}, 0});
+  fits.keep[{{}, 1}] = Passes(20);
+  std::vector<CandidateOutcome> out = Outcomes({"a", "b"});
+  Selection s;
+  s.chosen = {0, 1}, s.p = {1e-6, 1e-6}, s.wald = {30, 20};
+  EliminateBackward(Levels(2), &fits, &s, &out);
+  EXPECT_EQ(s.chosen, std::vector<int>({1}));
+  EXPECT_EQ(out[0].note, "explained by the other effects found");
+}
+
+TEST(DiagnoseSelect, ConfusablePairHidingEachOtherIsReportedIndistinguishable) {
+  // Neither significant alone, the two together are; given each other neither stands.
+  PairFit pf;
+  pf.pair = &kPairs[0], pf.a = 0, pf.b = 1;
+  pf.p = 1e-7, pf.wald = 40, pf.delta_bic = -15, pf.correlation = -0.95;
+  TableFits fits;
+  fits.pair_members = {{0, 1}};
+  fits.pair_confirmed = {true};
+  fits.keep[{{1}, 0}] = {0.2, 1.6, 0};
+  fits.keep[{{0}, 1}] = {0.3, 1.1, 0};
+  SingleVerdicts v = Judged({"time_offset", "steering_lag"}, {false, false});
+  const std::vector<CandidateOutcome>& out = v.outcomes;
+  std::vector<Indistinguishable> indist;
+  const Selection s = SelectEffects(kPairs, {pf}, v.eligible, Levels(2), &fits, &v.outcomes, &indist);
+  EXPECT_EQ(s.seeded, 0);
+  EXPECT_TRUE(s.chosen.empty());
+  ASSERT_EQ(indist.size(), 1u);
+  EXPECT_EQ(indist[0].first, "time_offset");
+  EXPECT_EQ(indist[0].second, "steering_lag");
+  EXPECT_DOUBLE_EQ(indist[0].correlation, -0.95);
+  EXPECT_EQ(indist[0].motion, kPairs[0].motion);
+  EXPECT_EQ(out[0].status, CandidateStatus::kIndistinguishable);
+  EXPECT_EQ(out[1].status, CandidateStatus::kIndistinguishable);
+  EXPECT_EQ(out[0].note,
+            "together significant, but neither given the other: indistinguishable from steering_lag with this "
+            "recording; to separate them drive speed changes while driving straight");
+}
+
+TEST(DiagnoseSelect, PairIsNotSeededWhenOneMemberIsEligibleOrItIsNotConfirmed) {
+  PairFit pf;
+  pf.pair = &kPairs[0], pf.a = 0, pf.b = 1, pf.p = 1e-7, pf.wald = 40, pf.delta_bic = -15;
+  TableFits fits;
+  fits.pair_members = {{0, 1}};
+  fits.pair_confirmed = {true};
+  Selection eligible_member;
+  SeedFromPair({pf}, {true, false}, Levels(2), kPairs.size(), &fits, &eligible_member);
+  EXPECT_EQ(eligible_member.seeded, -1);
+  fits.pair_confirmed = {false};
+  Selection unconfirmed;
+  SeedFromPair({pf}, {false, false}, Levels(2), kPairs.size(), &fits, &unconfirmed);
+  EXPECT_EQ(unconfirmed.seeded, -1);
+  EXPECT_TRUE(fits.model.empty());
+}
+
+TEST(DiagnoseSelect, ChosenEffectAndLookAlikeNeitherStandingAreIndistinguishable) {
+  TableFits fits;
+  fits.look_alike[{0, 1}] = {0.2, 0.4, 0.97};
+  std::vector<CandidateOutcome> out = Outcomes({"time_offset", "steering_lag"});
+  Selection s;
+  s.chosen = {0};
+  std::vector<Indistinguishable> indist;
+  CheckLookAlikes(kPairs, {true, false}, Levels(2), s, &fits, &out, &indist);
+  ASSERT_EQ(indist.size(), 1u);
+  EXPECT_EQ(indist[0].first, "time_offset");
+  EXPECT_DOUBLE_EQ(indist[0].correlation, 0.97);
+  EXPECT_EQ(out[1].status, CandidateStatus::kIndistinguishable);
+  EXPECT_EQ(out[1].note, "indistinguishable from time_offset; drive speed changes while driving straight");
+  EXPECT_EQ(out[0].note,
+            "indistinguishable from steering_lag with this recording; to separate them drive speed changes while "
+            "driving straight");
+}
+
+TEST(DiagnoseSelect, EligibleLookAlikeOfAChosenEffectIsRejectedAsExplained) {
+  TableFits fits;
+  fits.look_alike[{0, 1}] = {1e-8, 0.4, 0.5};
+  std::vector<CandidateOutcome> out = Outcomes({"time_offset", "steering_lag"});
+  Selection s;
+  s.chosen = {0};
+  std::vector<Indistinguishable> indist;
+  CheckLookAlikes(kPairs, {true, true}, Levels(2), s, &fits, &out, &indist);
+  EXPECT_TRUE(indist.empty());
+  EXPECT_EQ(out[1].status, CandidateStatus::kRejected);
+  EXPECT_EQ(out[1].note, "explained by time_offset (correlation of the estimates 0.500000)");
+}
+
+}  // namespace
+}  // namespace diag
+}  // namespace calib
