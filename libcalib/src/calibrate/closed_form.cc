@@ -58,13 +58,8 @@ double Condition(const Eigen::Matrix2d& normal) {
   return ev[0] <= 0 ? INFINITY : ev[1] / ev[0];
 }
 
-}  // namespace
-
-ClosedFormEstimate ClosedFormCalibration(DriveType type,
-                                         const std::map<std::string, double>& nominal,
-                                         const std::vector<MotionInterval>& all) {
-  ClosedFormEstimate out;
-  // Dual steer: only where a2 points straight ahead does the a1 tricycle model hold.
+// Dual steer: only where a2 points straight ahead does the a1 tricycle model hold.
+std::vector<const MotionInterval*> UsableIntervals(DriveType type, const std::vector<MotionInterval>& all) {
   std::vector<const MotionInterval*> intervals;
   for (const MotionInterval& m : all) {
     if (m.steps.empty()) continue;
@@ -74,6 +69,35 @@ ClosedFormEstimate ClosedFormCalibration(DriveType type,
     }
     if (use) intervals.push_back(&m);
   }
+  return intervals;
+}
+
+// 3. (dual steer) a2 travels W's forward path plus a times the rotation: x = (a2_radius, a)
+// from the intervals, their `forward` paths at unit scale and the scale `s`; false when the
+// travel does not separate the two.
+bool SecondWheel(const std::vector<const MotionInterval*>& intervals, const std::vector<double>& forward,
+                 double s, Eigen::Vector2d* x) {
+  Eigen::Matrix2d n2 = Eigen::Matrix2d::Zero();
+  Eigen::Vector2d r2 = Eigen::Vector2d::Zero();
+  for (std::size_t k = 0; k < intervals.size(); ++k) {
+    double phi2 = 0.0;
+    for (const WheelIncrement& st : intervals[k]->steps) phi2 += st.rotation[1];
+    const Eigen::Vector2d row(phi2, -intervals[k]->sensor_motion.theta);
+    n2 += row * row.transpose();
+    r2 += row * (s * forward[k]);
+  }
+  if (!(Condition(n2) < kMaxRotationCondition)) return false;
+  *x = n2.ldlt().solve(r2);
+  return true;
+}
+
+}  // namespace
+
+ClosedFormEstimate ClosedFormCalibration(DriveType type,
+                                         const std::map<std::string, double>& nominal,
+                                         const std::vector<MotionInterval>& all) {
+  ClosedFormEstimate out;
+  const std::vector<const MotionInterval*> intervals = UsableIntervals(type, all);
   if (intervals.size() < 10) {
     out.problem = type == DriveType::kDualSteer
                       ? "fewer than 10 intervals with a2 at zero steering"
@@ -155,21 +179,12 @@ ClosedFormEstimate ClosedFormCalibration(DriveType type,
       out.params = {{"drive_radius", s}, {"wheelbase", s / ratio}, {"steer_offset", offset}};
       break;
     case DriveType::kDualSteer: {
-      // 3. a2 travels W's forward path plus a times the rotation.
-      Eigen::Matrix2d n2 = Eigen::Matrix2d::Zero();
-      Eigen::Vector2d r2 = Eigen::Vector2d::Zero();
-      for (std::size_t k = 0; k < intervals.size(); ++k) {
-        double phi2 = 0.0;
-        for (const WheelIncrement& st : intervals[k]->steps) phi2 += st.rotation[1];
-        const Eigen::Vector2d row(phi2, -intervals[k]->sensor_motion.theta);
-        n2 += row * row.transpose();
-        r2 += row * (s * forward[k]);
-      }
-      if (!(Condition(n2) < kMaxRotationCondition)) {
+      // 3. The a2 wheel's radius and position a.
+      Eigen::Vector2d x;
+      if (!SecondWheel(intervals, forward, s, &x)) {
         out.problem = "the a2 wheel's travel does not separate its radius from a";
         return out;
       }
-      const Eigen::Vector2d x = n2.ldlt().solve(r2);
       out.params = {{"a1_radius", s}, {"a1_steer_offset", offset}, {"b", s / ratio},
                     {"a2_radius", x[0]}, {"a", x[1]}};
       break;

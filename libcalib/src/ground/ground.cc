@@ -119,6 +119,414 @@ std::vector<uint8_t> NearObstacles(const std::vector<float>& xyz, const Eigen::V
   return near;
 }
 
+// FitFloor, steps 1 and 2: the returns outside the body box (`kept`) and, of
+// those, the ones near the nominal floor (`candidates`), xyz interleaved in
+// the sensor frame; counts the points and body points into `fit`.
+void SelectReturns(const float* xyz, size_t count, const Mount3d& nominal,
+                   const FloorFitOptions& options, double mount_angle, std::vector<float>* kept,
+                   std::vector<float>* candidates, FrameFit* fit) {
+  // Nominal sensor-to-robot transform; a turret turns the sensor about the robot's vertical.
+  const Eigen::Matrix3f rotation =
+      Rotation(nominal.yaw + mount_angle, nominal.pitch, nominal.roll).cast<float>();
+  const Eigen::Vector3f mount(static_cast<float>(nominal.x), static_cast<float>(nominal.y),
+                              static_cast<float>(nominal.z));
+  Eigen::Vector3f lo = Eigen::Vector3f::Constant(std::numeric_limits<float>::infinity());
+  Eigen::Vector3f hi = -lo;
+  if (nominal.body) {
+    for (int k = 0; k < 3; ++k) {
+      lo[k] = static_cast<float>(nominal.body->min[k] - options.body_margin_m);
+      hi[k] = static_cast<float>(nominal.body->max[k] + options.body_margin_m);
+    }
+  }
+  const float min_range2 = static_cast<float>(options.min_range_m * options.min_range_m);
+  const float max_range2 = options.max_range_m > 0
+                               ? static_cast<float>(options.max_range_m * options.max_range_m)
+                               : std::numeric_limits<float>::infinity();
+  const float window = static_cast<float>(options.window_m);
+
+  kept->reserve(3 * count);
+  candidates->reserve(count);
+  for (size_t i = 0; i < count; ++i) {
+    const Eigen::Vector3f p(xyz[3 * i], xyz[3 * i + 1], xyz[3 * i + 2]);
+    if (!p.allFinite() || p.squaredNorm() < min_range2 || p.squaredNorm() > max_range2) continue;
+    ++fit->points;
+    const Eigen::Vector3f q = rotation * p + mount;
+    if ((q.array() > lo.array()).all() && (q.array() < hi.array()).all()) {
+      ++fit->body_points;
+      continue;
+    }
+    kept->insert(kept->end(), {p.x(), p.y(), p.z()});
+    if (std::abs(q.z()) <= window) candidates->insert(candidates->end(), {p.x(), p.y(), p.z()});
+  }
+}
+
+// FitFloor, step 3: consensus on an evenly spread subsample of the candidates
+// (speed; the refinement uses every point).
+std::optional<SacPlane> ConsensusPlane(const std::vector<float>& candidates, int num_candidates,
+                                       const Eigen::Vector3d& up0, const FloorFitOptions& options) {
+  const size_t stride = (static_cast<size_t>(num_candidates) +
+                         static_cast<size_t>(std::max(options.ransac_max_points, 3)) - 1) /
+                        static_cast<size_t>(std::max(options.ransac_max_points, 3));
+  std::vector<float> sample;
+  if (stride > 1) {
+    sample.reserve(3 * (candidates.size() / 3 / stride + 1));
+    for (size_t i = 0; i < candidates.size() / 3; i += stride)
+      sample.insert(sample.end(), candidates.begin() + 3 * i, candidates.begin() + 3 * i + 3);
+  }
+  const std::vector<float>& consensus_points = stride > 1 ? sample : candidates;
+  return FindPlaneSac(consensus_points.data(), consensus_points.size() / 3, up0,
+                      options.max_tilt_rad, options.ransac_threshold_m,
+                      options.ransac_max_iterations);
+}
+
+// FitFloor, step 4: the refinement. Each point is a range r along an exactly
+// known ray u = p/|p|; its height above the floor is h = c r + z with c = n.u,
+// and its variance is modelled as var(h) = s_r^2 c^2 + s_f^2 (range noise seen
+// at the ray's incidence, plus floor roughness), both estimated from the
+// residuals. Points within band_sigmas of that (at least min_band) are the
+// floor. The first pass fits by principal axes; later ones by Gauss-Newton
+// with weights 1/var(h) and the Jacobian taken at the predicted floor point
+// (range -z/c), not the measured one: a Jacobian holding the measured, noisy
+// range would correlate with the residual and bias the fit.
+class FloorRefiner {
+ public:
+  // `kept`: the non-body returns (xyz interleaved); (normal, d): the consensus plane.
+  FloorRefiner(const std::vector<float>& kept, const Eigen::Vector3d& normal, double d,
+               const FloorFitOptions& options)
+      : kept_(kept),
+        options_(options),
+        n_kept_(kept.size() / 3),
+        range_(n_kept_),
+        n_(normal),
+        d_(d),
+        var_floor_(std::pow(options.ransac_threshold_m / options.band_sigmas, 2)),
+        min_band2_(options.min_band_m * options.min_band_m),
+        sigmas2_(options.band_sigmas * options.band_sigmas) {
+    for (size_t i = 0; i < n_kept_; ++i)
+      range_[i] = std::sqrt(kept[3 * i] * kept[3 * i] + kept[3 * i + 1] * kept[3 * i + 1] +
+                            kept[3 * i + 2] * kept[3 * i + 2]);
+  }
+
+  // The passes; false, with fit->problem, when the plane loses its points.
+  bool Refine(const Eigen::Vector3d& up0, FrameFit* fit) {
+    for (int iteration = 0; iteration <= options_.refine_iterations; ++iteration) {
+      inliers_.clear();
+      for (size_t i = 0; i < n_kept_; ++i) {
+        double c;
+        const double h = Height(i, &c);
+        // c < 0: the ray goes down (every floor point's does, c = -z/r).
+        if (c < -1e-3 && h * h <= Band2Of(c) && (near_obstacle_.empty() || !near_obstacle_[i]))
+          inliers_.push_back(static_cast<uint32_t>(i));
+      }
+      if (inliers_.size() < 3) {
+        fit->problem = "the floor plane lost its points while refining";
+        return false;
+      }
+      if (iteration == 0) {
+        if (!FitPlane(kept_, inliers_, up0, &n_, &d_)) {
+          fit->problem = "the floor plane lost its points while refining";
+          return false;
+        }
+      } else {
+        Accumulate(false);  // one Gauss-Newton step per pass: the start is close
+        const Eigen::Vector3d delta = a_.ldlt().solve(-g_);
+        if (delta.allFinite()) {
+          double pitch, roll;
+          PitchRollOf(n_, &pitch, &roll);
+          d_ += delta[0];
+          n_ = FloorNormal(pitch + delta[1], roll + delta[2]);
+        }
+      }
+      EstimateVariances();
+      if (iteration == 0 && options_.obstacle_cell_m > 0) {
+        const double band = std::sqrt(Band2Of(-1.0));  // the widest band: near, steep rays
+        near_obstacle_ = NearObstacles(kept_, n_, d_, band, std::max(2 * band, options_.obstacle_min_height_m),
+                                       options_.obstacle_max_height_m, options_.obstacle_cell_m);
+        fit->near_obstacles = static_cast<int>(std::count(near_obstacle_.begin(), near_obstacle_.end(), 1));
+      }
+    }
+    return true;
+  }
+
+  // After Refine: the inliers, the pose, and the sandwich covariance of
+  // (z, pitch, roll), A^-1 B A^-1 with A = sum w J J', B = sum w^2 h^2 J J'.
+  void Finish(FrameFit* fit, std::vector<float>* floor_points) {
+    fit->inliers = static_cast<int>(inliers_.size());
+    if (floor_points) {
+      floor_points->clear();
+      floor_points->reserve(3 * inliers_.size());
+      for (uint32_t i : inliers_) floor_points->insert(floor_points->end(), kept_.begin() + 3 * i, kept_.begin() + 3 * i + 3);
+    }
+    fit->pose.z = d_;
+    PitchRollOf(n_, &fit->pose.pitch, &fit->pose.roll);
+
+    Accumulate(true);
+    const double m = static_cast<double>(inliers_.size());
+    fit->rms_m = std::sqrt(sum_h2_ / m);
+    const Eigen::Matrix3d a_inv = a_.inverse();
+    fit->cov = a_inv * b_ * a_inv * (m / std::max(m - 3.0, 1.0));
+    fit->range_noise_m = std::sqrt(var_range_);
+    fit->floor_noise_m = std::sqrt(var_floor_);
+  }
+
+  const Eigen::Vector3d& normal() const { return n_; }
+  double d() const { return d_; }
+  const std::vector<uint32_t>& inliers() const { return inliers_; }
+  // Half width of the widest band: near, steep rays.
+  double widest_band() const { return std::sqrt(Band2Of(-1.0)); }
+
+ private:
+  static constexpr int kBins = 7;
+
+  // Height and incidence of point i under (n, d).
+  double Height(size_t i, double* c) const {
+    const double h = n_.x() * kept_[3 * i] + n_.y() * kept_[3 * i + 1] + n_.z() * kept_[3 * i + 2];
+    *c = h / range_[i];
+    return h + d_;
+  }
+
+  double Band2Of(double c) const {
+    return std::max(sigmas2_ * (var_range_ * c * c + var_floor_), min_band2_);
+  }
+
+  // s_r^2 and s_f^2 (>= 0): the inliers in bins of |c| (steep to grazing
+  // rays), a robust variance per bin ((1.4826 MAD)^2, so stray points near the
+  // band's edge do not inflate it), and var = s_r^2 c^2 + s_f^2 fitted to the
+  // bins by least squares.
+  void EstimateVariances() {
+    constexpr double kBinEdges[] = {0.0, 0.015, 0.03, 0.06, 0.12, 0.24, 0.48, 2.0};
+    double bin_c2[kBins] = {};
+    for (auto& v : bin_h_) v.clear();
+    for (uint32_t i : inliers_) {
+      double c;
+      const double h = Height(i, &c);
+      int k = 0;
+      while (k + 1 < kBins && -c >= kBinEdges[k + 1]) ++k;
+      bin_h_[k].push_back(std::abs(h));
+      bin_c2[k] += c * c;
+    }
+    double s11 = 0, s12 = 0, s22 = 0, t1 = 0, t2 = 0;
+    for (int k = 0; k < kBins; ++k) {
+      if (bin_h_[k].size() < 20) continue;
+      const double w = static_cast<double>(bin_h_[k].size());
+      const double c2 = bin_c2[k] / w;
+      const double var = std::pow(1.4826 * Median(bin_h_[k]), 2);
+      s11 += w * c2 * c2, s12 += w * c2, s22 += w, t1 += w * c2 * var, t2 += w * var;
+    }
+    if (s22 == 0) return;  // too few points to tell: keep the previous model
+    const double det = s11 * s22 - s12 * s12;
+    const bool solvable = det > 1e-9 * s11 * s22;
+    double vr = solvable ? (t1 * s22 - s12 * t2) / det : -1.0;
+    double vf = solvable ? (s11 * t2 - s12 * t1) / det : -1.0;
+    if (vr < 0) vr = 0.0, vf = t2 / s22;
+    if (vf < 0) vf = 0.0, vr = t1 / s11;
+    var_range_ = vr;
+    var_floor_ = std::max(vf, 1e-12);  // (1 um)^2: keeps weights finite on perfect data
+  }
+
+  // Weighted normal equations at the current plane; theta = (z, pitch, roll).
+  // With `sandwich`, also B = sum w^2 h^2 J J' for the covariance.
+  void Accumulate(bool sandwich) {
+    double pitch, roll;
+    PitchRollOf(n_, &pitch, &roll);
+    const double sp = std::sin(pitch), cp = std::cos(pitch), sr = std::sin(roll), cr = std::cos(roll);
+    const Eigen::Vector3d dn_dpitch(-cp, -sp * sr, -sp * cr), dn_droll(0.0, cp * cr, -cp * sr);
+    double sa[6] = {}, sb[6] = {}, sg[3] = {};  // upper triangles (00 01 02 11 12 22), g
+    sum_h2_ = 0.0;
+    for (uint32_t i : inliers_) {
+      const double x = kept_[3 * i], y = kept_[3 * i + 1], zz = kept_[3 * i + 2];
+      const double inv_r = 1.0 / range_[i];
+      const double c = (n_.x() * x + n_.y() * y + n_.z() * zz) * inv_r;
+      const double h = c * range_[i] + d_;
+      const double scale = -d_ / c * inv_r;  // predicted range / measured range
+      const double j1 = (dn_dpitch.x() * x + dn_dpitch.y() * y + dn_dpitch.z() * zz) * scale;
+      const double j2 = (dn_droll.y() * y + dn_droll.z() * zz) * scale;
+      const double w = 1.0 / (var_range_ * c * c + var_floor_);
+      sa[0] += w, sa[1] += w * j1, sa[2] += w * j2, sa[3] += w * j1 * j1, sa[4] += w * j1 * j2,
+          sa[5] += w * j2 * j2;
+      const double wh = w * h;
+      sg[0] += wh, sg[1] += wh * j1, sg[2] += wh * j2;
+      sum_h2_ += h * h;
+      if (sandwich) {
+        const double v = wh * wh;
+        sb[0] += v, sb[1] += v * j1, sb[2] += v * j2, sb[3] += v * j1 * j1, sb[4] += v * j1 * j2,
+            sb[5] += v * j2 * j2;
+      }
+    }
+    auto fill = [](const double* t, Eigen::Matrix3d* m) {
+      *m << t[0], t[1], t[2], t[1], t[3], t[4], t[2], t[4], t[5];
+    };
+    fill(sa, &a_);
+    fill(sb, &b_);
+    g_ << sg[0], sg[1], sg[2];
+  }
+
+  const std::vector<float>& kept_;
+  const FloorFitOptions& options_;
+  const size_t n_kept_;
+  std::vector<float> range_;
+  Eigen::Vector3d n_;
+  double d_;
+  double var_range_ = 0.0;  // s_r^2
+  double var_floor_;        // s_f^2
+  const double min_band2_, sigmas2_;
+  std::vector<uint32_t> inliers_;
+  std::vector<uint8_t> near_obstacle_;  // from the second pass on
+  std::vector<double> bin_h_[kBins];
+  Eigen::Matrix3d a_ = Eigen::Matrix3d::Zero(), b_ = Eigen::Matrix3d::Zero();
+  Eigen::Vector3d g_ = Eigen::Vector3d::Zero();
+  double sum_h2_ = 0.0;
+};
+
+// Spread of the floor points (`selected` of `xyz`) along the plane's narrower axis.
+double FloorExtent(const std::vector<float>& xyz, const std::vector<uint32_t>& selected,
+                   const Eigen::Vector3d& n) {
+  const double m = static_cast<double>(selected.size());
+  Eigen::Vector3d mean = Eigen::Vector3d::Zero();
+  for (uint32_t i : selected) mean += Eigen::Vector3d(xyz[3 * i], xyz[3 * i + 1], xyz[3 * i + 2]);
+  mean /= m;
+  const Eigen::Vector3d u = n.unitOrthogonal(), v = n.cross(u);
+  Eigen::Matrix2d spread = Eigen::Matrix2d::Zero();
+  for (uint32_t i : selected) {
+    const Eigen::Vector3d q = Eigen::Vector3d(xyz[3 * i], xyz[3 * i + 1], xyz[3 * i + 2]) - mean;
+    const Eigen::Vector2d w(u.dot(q), v.dot(q));
+    spread.noalias() += w * w.transpose();
+  }
+  return std::sqrt(std::max(0.0, Eigen::SelfAdjointEigenSolver<Eigen::Matrix2d>(spread / m)
+                                     .eigenvalues()(0)));
+}
+
+// FitFloor, step 5: why the fit is not the floor, or empty when it is. `below`:
+// points well below the plane.
+std::string FloorProblem(const FrameFit& fit, const Mount3d& nominal, const FloorFitOptions& options,
+                         const Eigen::Vector3d& n, double d, const Eigen::Vector3d& up0, int below) {
+  const double tilt = std::acos(std::clamp(n.dot(up0), -1.0, 1.0));
+  if (fit.inliers < options.min_floor_points) {
+    return "too few floor points (" + std::to_string(fit.inliers) + " < " +
+           std::to_string(options.min_floor_points) + ")";
+  } else if (tilt > options.max_tilt_rad || std::abs(d - nominal.z) > options.window_m) {
+    return "the plane found is " + Fixed(tilt / kDeg, 2) + " deg and " +
+           Fixed(d - nominal.z, 3) + " m away from the nominal floor";
+  } else if (fit.extent_m < options.min_floor_extent_m) {
+    return "the floor is seen only in a narrow strip (spread " + Fixed(fit.extent_m, 2) +
+           " m < " + Fixed(options.min_floor_extent_m, 2) + " m)";
+  } else if (fit.below_share > options.max_below_share) {
+    return "many points lie below the plane found (" + std::to_string(below) +
+           " against " + std::to_string(fit.inliers) + " on it): it is not the floor";
+  } else if (!fit.cov.allFinite()) {
+    return "the floor points do not determine the plane";
+  }
+  return "";
+}
+
+Eigen::Vector3d PoseOf(const FrameFit& fit) { return Eigen::Vector3d(fit.pose.z, fit.pose.pitch, fit.pose.roll); }
+
+// Why none of `offered` frames shows enough floor: the most common problem
+// (`problems`, grouped by their wording up to the numbers) and its first
+// instance among `failed`, the unusable frames' problems in order.
+std::string NoFloorReason(const std::map<std::string, int>& problems,
+                          const std::vector<const std::string*>& failed, int offered) {
+  const auto worst = std::max_element(problems.begin(), problems.end(),
+                                      [](const auto& a, const auto& b) { return a.second < b.second; });
+  std::string example;
+  for (const std::string* problem : failed)
+    if (problem->compare(0, worst->first.size(), worst->first) == 0) {
+      example = *problem;
+      break;
+    }
+  return "none of " + std::to_string(offered) + " frames shows enough floor (" +
+         std::to_string(worst->second) + " of them: " + example + ")";
+}
+
+struct LevelFrames {
+  std::vector<size_t> level;  // indices of the frames level with the others
+  double worst_tilt = 0.0, worst_height = 0.0;  // the largest deviations of the others
+};
+
+// Frames whose floor tilts against the others: the robot stood on a slope or a bump.
+// Deviation from the median, after an unweighted straight-line trend in the angle
+// offsets (turning lidar, `trend`).
+LevelFrames FindLevelFrames(const std::vector<const FrameFit*>& fits, const std::vector<double>& offsets,
+                            bool trend, const FrameOptions& fo) {
+  Eigen::Vector3d slope0 = Eigen::Vector3d::Zero();
+  if (trend) {
+    double sa = 0, saa = 0;
+    Eigen::Vector3d sx = Eigen::Vector3d::Zero(), sax = Eigen::Vector3d::Zero();
+    for (size_t k = 0; k < fits.size(); ++k) {
+      const double da = offsets[k];
+      sa += da, saa += da * da, sx += PoseOf(*fits[k]), sax += da * PoseOf(*fits[k]);
+    }
+    const double nf = static_cast<double>(fits.size()), det = nf * saa - sa * sa;
+    if (det > 1e-12) slope0 = (nf * sax - sa * sx) / det;
+  }
+  std::vector<double> zs, pitches, rolls;
+  for (size_t k = 0; k < fits.size(); ++k) {
+    const Eigen::Vector3d p = PoseOf(*fits[k]) - offsets[k] * slope0;
+    zs.push_back(p[0]), pitches.push_back(p[1]), rolls.push_back(p[2]);
+  }
+  const double mz = Median(zs), mp = Median(pitches), mr = Median(rolls);
+  LevelFrames out;
+  for (size_t k = 0; k < fits.size(); ++k) {
+    const double tilt = std::max(std::abs(pitches[k] - mp), std::abs(rolls[k] - mr));
+    const double height = std::abs(zs[k] - mz);
+    if (tilt > fo.max_tilt_rad || height > fo.max_height_m) {
+      out.worst_tilt = std::max(out.worst_tilt, tilt);
+      out.worst_height = std::max(out.worst_height, height);
+    } else {
+      out.level.push_back(k);
+    }
+  }
+  return out;
+}
+
+// Inverse-covariance weighted least squares of the frames' poses on
+// [I, da I, da^2 I] (a constant; for a turning lidar, `trend`, also the trend
+// and its curvature, so the constant is the pose at the mean angle, da being
+// the frames' `offsets` from it); the covariance is inflated by the scatter
+// about it (Birge ratio) when > 1.
+MountEstimate WeightedMount(const std::vector<const FrameFit*>& fits, const std::vector<double>& offsets,
+                            bool trend) {
+  const int order = !trend ? 0 : fits.size() >= 4 ? 2 : fits.size() >= 3 ? 1 : 0;
+  const int unknowns = 3 * (order + 1);
+  Eigen::MatrixXd a = Eigen::MatrixXd::Zero(unknowns, unknowns);
+  Eigen::VectorXd rhs = Eigen::VectorXd::Zero(unknowns);
+  std::vector<Eigen::Matrix3d> weights;
+  weights.reserve(fits.size());
+  long points = 0, inliers = 0;
+  double sum_r2 = 0.0;
+  for (size_t k = 0; k < fits.size(); ++k) {
+    const FrameFit& f = *fits[k];
+    const Eigen::Matrix3d w = f.cov.inverse();
+    weights.push_back(w);
+    const double da = offsets[k];
+    Eigen::MatrixXd j(3, unknowns);
+    for (int o = 0; o <= order; ++o) j.middleCols<3>(3 * o) = std::pow(da, o) * Eigen::Matrix3d::Identity();
+    a += j.transpose() * w * j;
+    rhs += j.transpose() * w * PoseOf(f);
+    points += f.points;
+    inliers += f.inliers;
+    sum_r2 += f.rms_m * f.rms_m * f.inliers;
+  }
+  const Eigen::MatrixXd a_inv = a.inverse();
+  const Eigen::VectorXd x = a_inv * rhs;
+  double chi2 = 0.0;
+  for (size_t k = 0; k < fits.size(); ++k) {
+    Eigen::Vector3d e = PoseOf(*fits[k]);
+    for (int o = 0; o <= order; ++o) e -= std::pow(offsets[k], o) * x.segment<3>(3 * o);
+    chi2 += e.dot(weights[k] * e);
+  }
+  MountEstimate est;
+  const int dof = 3 * static_cast<int>(fits.size()) - unknowns;
+  est.birge_ratio = dof > 0 ? std::sqrt(chi2 / dof) : 1.0;
+  const Eigen::Matrix3d cov = a_inv.topLeftCorner<3, 3>() * std::max(1.0, est.birge_ratio * est.birge_ratio);
+  est.value = {x[0], x[1], x[2]};
+  est.std = {std::sqrt(cov(0, 0)), std::sqrt(cov(1, 1)), std::sqrt(cov(2, 2))};
+  est.frames = static_cast<int>(fits.size());
+  est.inliers = points > 0 ? static_cast<double>(inliers) / static_cast<double>(points) : 0.0;
+  est.rms_m = inliers > 0 ? std::sqrt(sum_r2 / static_cast<double>(inliers)) : 0.0;
+  return est;
+}
+
 }  // namespace
 
 Eigen::Vector3d FloorNormal(double pitch, double roll) {
@@ -134,42 +542,10 @@ FrameFit FitFloor(const float* xyz, size_t count, const Mount3d& nominal,
                   const FloorFitOptions& options, double mount_angle,
                   std::vector<float>* floor_points) {
   FrameFit fit;
-  // Nominal sensor-to-robot transform; a turret turns the sensor about the robot's vertical.
-  const Eigen::Matrix3f rotation =
-      Rotation(nominal.yaw + mount_angle, nominal.pitch, nominal.roll).cast<float>();
-  const Eigen::Vector3f mount(static_cast<float>(nominal.x), static_cast<float>(nominal.y),
-                              static_cast<float>(nominal.z));
   const Eigen::Vector3d up0 = FloorNormal(nominal.pitch, nominal.roll);
-  Eigen::Vector3f lo = Eigen::Vector3f::Constant(std::numeric_limits<float>::infinity());
-  Eigen::Vector3f hi = -lo;
-  if (nominal.body) {
-    for (int k = 0; k < 3; ++k) {
-      lo[k] = static_cast<float>(nominal.body->min[k] - options.body_margin_m);
-      hi[k] = static_cast<float>(nominal.body->max[k] + options.body_margin_m);
-    }
-  }
-  const float min_range2 = static_cast<float>(options.min_range_m * options.min_range_m);
-  const float max_range2 = options.max_range_m > 0
-                               ? static_cast<float>(options.max_range_m * options.max_range_m)
-                               : std::numeric_limits<float>::infinity();
-  const float window = static_cast<float>(options.window_m);
-
   std::vector<float> kept;        // non-body returns
   std::vector<float> candidates;  // of those, near the nominal floor
-  kept.reserve(3 * count);
-  candidates.reserve(count);
-  for (size_t i = 0; i < count; ++i) {
-    const Eigen::Vector3f p(xyz[3 * i], xyz[3 * i + 1], xyz[3 * i + 2]);
-    if (!p.allFinite() || p.squaredNorm() < min_range2 || p.squaredNorm() > max_range2) continue;
-    ++fit.points;
-    const Eigen::Vector3f q = rotation * p + mount;
-    if ((q.array() > lo.array()).all() && (q.array() < hi.array()).all()) {
-      ++fit.body_points;
-      continue;
-    }
-    kept.insert(kept.end(), {p.x(), p.y(), p.z()});
-    if (std::abs(q.z()) <= window) candidates.insert(candidates.end(), {p.x(), p.y(), p.z()});
-  }
+  SelectReturns(xyz, count, nominal, options, mount_angle, &kept, &candidates, &fit);
   fit.candidates = static_cast<int>(candidates.size() / 3);
   if (fit.candidates < options.min_floor_points) {
     fit.problem = "too few points near the floor (" + std::to_string(fit.candidates) + " < " +
@@ -177,224 +553,31 @@ FrameFit FitFloor(const float* xyz, size_t count, const Mount3d& nominal,
     return fit;
   }
 
-  // Consensus on an evenly spread subsample (speed; the refinement uses every point).
-  const size_t stride = (static_cast<size_t>(fit.candidates) +
-                         static_cast<size_t>(std::max(options.ransac_max_points, 3)) - 1) /
-                        static_cast<size_t>(std::max(options.ransac_max_points, 3));
-  std::vector<float> sample;
-  if (stride > 1) {
-    sample.reserve(3 * (candidates.size() / 3 / stride + 1));
-    for (size_t i = 0; i < candidates.size() / 3; i += stride)
-      sample.insert(sample.end(), candidates.begin() + 3 * i, candidates.begin() + 3 * i + 3);
-  }
-  const std::vector<float>& consensus_points = stride > 1 ? sample : candidates;
-  const auto sac = FindPlaneSac(consensus_points.data(), consensus_points.size() / 3, up0,
-                                options.max_tilt_rad, options.ransac_threshold_m,
-                                options.ransac_max_iterations);
+  const auto sac = ConsensusPlane(candidates, fit.candidates, up0, options);
   if (!sac) {
     fit.problem = "no plane within " + Fixed(options.max_tilt_rad / kDeg, 1) +
                   " deg of the nominal floor among the points near it";
     return fit;
   }
 
-  // Refinement. Each point is a range r along an exactly known ray u = p/|p|;
-  // its height above the floor is h = c r + z with c = n.u, and its variance
-  // is modelled as var(h) = s_r^2 c^2 + s_f^2 (range noise seen at the ray's
-  // incidence, plus floor roughness), both estimated from the residuals.
-  // Points within band_sigmas of that (at least min_band) are the floor.
-  // The first pass fits by principal axes; later ones by Gauss-Newton with
-  // weights 1/var(h) and the Jacobian taken at the predicted floor point
-  // (range -z/c), not the measured one: a Jacobian holding the measured,
-  // noisy range would correlate with the residual and bias the fit.
-  const size_t n_kept = kept.size() / 3;
-  std::vector<float> range(n_kept);
-  for (size_t i = 0; i < n_kept; ++i)
-    range[i] = std::sqrt(kept[3 * i] * kept[3 * i] + kept[3 * i + 1] * kept[3 * i + 1] +
-                         kept[3 * i + 2] * kept[3 * i + 2]);
-  Eigen::Vector3d n = sac->normal;
-  double d = sac->d;
-  double var_range = 0.0;  // s_r^2
-  double var_floor = std::pow(options.ransac_threshold_m / options.band_sigmas, 2);  // s_f^2
-  std::vector<uint32_t> inliers;
-  std::vector<uint8_t> near_obstacle;  // from the second pass on
-  const double min_band2 = options.min_band_m * options.min_band_m;
-  const double sigmas2 = options.band_sigmas * options.band_sigmas;
-  // Height and incidence of point i under (n, d).
-  auto height = [&](size_t i, double* c) {
-    const double h = n.x() * kept[3 * i] + n.y() * kept[3 * i + 1] + n.z() * kept[3 * i + 2];
-    *c = h / range[i];
-    return h + d;
-  };
-  // s_r^2 and s_f^2 (>= 0): the inliers in bins of |c| (steep to grazing
-  // rays), a robust variance per bin ((1.4826 MAD)^2, so stray points near the
-  // band's edge do not inflate it), and var = s_r^2 c^2 + s_f^2 fitted to the
-  // bins by least squares.
-  constexpr double kBinEdges[] = {0.0, 0.015, 0.03, 0.06, 0.12, 0.24, 0.48, 2.0};
-  constexpr int kBins = 7;
-  std::vector<double> bin_h[kBins];
-  auto estimate_variances = [&]() {
-    double bin_c2[kBins] = {};
-    for (auto& v : bin_h) v.clear();
-    for (uint32_t i : inliers) {
-      double c;
-      const double h = height(i, &c);
-      int k = 0;
-      while (k + 1 < kBins && -c >= kBinEdges[k + 1]) ++k;
-      bin_h[k].push_back(std::abs(h));
-      bin_c2[k] += c * c;
-    }
-    double s11 = 0, s12 = 0, s22 = 0, t1 = 0, t2 = 0;
-    for (int k = 0; k < kBins; ++k) {
-      if (bin_h[k].size() < 20) continue;
-      const double w = static_cast<double>(bin_h[k].size());
-      const double c2 = bin_c2[k] / w;
-      const double var = std::pow(1.4826 * Median(bin_h[k]), 2);
-      s11 += w * c2 * c2, s12 += w * c2, s22 += w, t1 += w * c2 * var, t2 += w * var;
-    }
-    if (s22 == 0) return;  // too few points to tell: keep the previous model
-    const double det = s11 * s22 - s12 * s12;
-    const bool solvable = det > 1e-9 * s11 * s22;
-    double vr = solvable ? (t1 * s22 - s12 * t2) / det : -1.0;
-    double vf = solvable ? (s11 * t2 - s12 * t1) / det : -1.0;
-    if (vr < 0) vr = 0.0, vf = t2 / s22;
-    if (vf < 0) vf = 0.0, vr = t1 / s11;
-    var_range = vr;
-    var_floor = std::max(vf, 1e-12);  // (1 um)^2: keeps weights finite on perfect data
-  };
-  auto band2_of = [&](double c) { return std::max(sigmas2 * (var_range * c * c + var_floor), min_band2); };
-  // Weighted normal equations at the current plane; theta = (z, pitch, roll).
-  // With `sandwich`, also B = sum w^2 h^2 J J' for the covariance.
-  Eigen::Matrix3d a = Eigen::Matrix3d::Zero(), b = Eigen::Matrix3d::Zero();
-  Eigen::Vector3d g = Eigen::Vector3d::Zero();
-  double sum_h2 = 0.0;
-  auto accumulate = [&](bool sandwich) {
-    double pitch, roll;
-    PitchRollOf(n, &pitch, &roll);
-    const double sp = std::sin(pitch), cp = std::cos(pitch), sr = std::sin(roll), cr = std::cos(roll);
-    const Eigen::Vector3d dn_dpitch(-cp, -sp * sr, -sp * cr), dn_droll(0.0, cp * cr, -cp * sr);
-    double sa[6] = {}, sb[6] = {}, sg[3] = {};  // upper triangles (00 01 02 11 12 22), g
-    sum_h2 = 0.0;
-    for (uint32_t i : inliers) {
-      const double x = kept[3 * i], y = kept[3 * i + 1], zz = kept[3 * i + 2];
-      const double inv_r = 1.0 / range[i];
-      const double c = (n.x() * x + n.y() * y + n.z() * zz) * inv_r;
-      const double h = c * range[i] + d;
-      const double scale = -d / c * inv_r;  // predicted range / measured range
-      const double j1 = (dn_dpitch.x() * x + dn_dpitch.y() * y + dn_dpitch.z() * zz) * scale;
-      const double j2 = (dn_droll.y() * y + dn_droll.z() * zz) * scale;
-      const double w = 1.0 / (var_range * c * c + var_floor);
-      sa[0] += w, sa[1] += w * j1, sa[2] += w * j2, sa[3] += w * j1 * j1, sa[4] += w * j1 * j2,
-          sa[5] += w * j2 * j2;
-      const double wh = w * h;
-      sg[0] += wh, sg[1] += wh * j1, sg[2] += wh * j2;
-      sum_h2 += h * h;
-      if (sandwich) {
-        const double v = wh * wh;
-        sb[0] += v, sb[1] += v * j1, sb[2] += v * j2, sb[3] += v * j1 * j1, sb[4] += v * j1 * j2,
-            sb[5] += v * j2 * j2;
-      }
-    }
-    auto fill = [](const double* t, Eigen::Matrix3d* m) {
-      *m << t[0], t[1], t[2], t[1], t[3], t[4], t[2], t[4], t[5];
-    };
-    fill(sa, &a);
-    fill(sb, &b);
-    g << sg[0], sg[1], sg[2];
-  };
-  for (int iteration = 0; iteration <= options.refine_iterations; ++iteration) {
-    inliers.clear();
-    for (size_t i = 0; i < n_kept; ++i) {
-      double c;
-      const double h = height(i, &c);
-      // c < 0: the ray goes down (every floor point's does, c = -z/r).
-      if (c < -1e-3 && h * h <= band2_of(c) && (near_obstacle.empty() || !near_obstacle[i]))
-        inliers.push_back(static_cast<uint32_t>(i));
-    }
-    if (inliers.size() < 3) {
-      fit.problem = "the floor plane lost its points while refining";
-      return fit;
-    }
-    if (iteration == 0) {
-      if (!FitPlane(kept, inliers, up0, &n, &d)) {
-        fit.problem = "the floor plane lost its points while refining";
-        return fit;
-      }
-    } else {
-      accumulate(false);  // one Gauss-Newton step per pass: the start is close
-      const Eigen::Vector3d delta = a.ldlt().solve(-g);
-      if (delta.allFinite()) {
-        double pitch, roll;
-        PitchRollOf(n, &pitch, &roll);
-        d += delta[0];
-        n = FloorNormal(pitch + delta[1], roll + delta[2]);
-      }
-    }
-    estimate_variances();
-    if (iteration == 0 && options.obstacle_cell_m > 0) {
-      const double band = std::sqrt(band2_of(-1.0));  // the widest band: near, steep rays
-      near_obstacle = NearObstacles(kept, n, d, band, std::max(2 * band, options.obstacle_min_height_m),
-                                    options.obstacle_max_height_m, options.obstacle_cell_m);
-      fit.near_obstacles = static_cast<int>(std::count(near_obstacle.begin(), near_obstacle.end(), 1));
-    }
-  }
-  fit.inliers = static_cast<int>(inliers.size());
-  if (floor_points) {
-    floor_points->clear();
-    floor_points->reserve(3 * inliers.size());
-    for (uint32_t i : inliers) floor_points->insert(floor_points->end(), kept.begin() + 3 * i, kept.begin() + 3 * i + 3);
-  }
-  fit.pose.z = d;
-  PitchRollOf(n, &fit.pose.pitch, &fit.pose.roll);
-
-  // Sandwich covariance of (z, pitch, roll): A^-1 B A^-1, A = sum w J J', B = sum w^2 h^2 J J'.
-  accumulate(true);
-  const double m = static_cast<double>(inliers.size());
-  fit.rms_m = std::sqrt(sum_h2 / m);
-  const Eigen::Matrix3d a_inv = a.inverse();
-  fit.cov = a_inv * b * a_inv * (m / std::max(m - 3.0, 1.0));
-  fit.range_noise_m = std::sqrt(var_range);
-  fit.floor_noise_m = std::sqrt(var_floor);
-  const double band = std::sqrt(band2_of(-1.0));
-  Eigen::Vector3d mean = Eigen::Vector3d::Zero();
-  for (uint32_t i : inliers) mean += Eigen::Vector3d(kept[3 * i], kept[3 * i + 1], kept[3 * i + 2]);
-
-  // Spread of the floor points along the plane's narrower axis.
-  mean /= m;
-  const Eigen::Vector3d u = n.unitOrthogonal(), v = n.cross(u);
-  Eigen::Matrix2d spread = Eigen::Matrix2d::Zero();
-  for (uint32_t i : inliers) {
-    const Eigen::Vector3d q = Eigen::Vector3d(kept[3 * i], kept[3 * i + 1], kept[3 * i + 2]) - mean;
-    const Eigen::Vector2d w(u.dot(q), v.dot(q));
-    spread.noalias() += w * w.transpose();
-  }
-  fit.extent_m = std::sqrt(std::max(0.0, Eigen::SelfAdjointEigenSolver<Eigen::Matrix2d>(spread / m)
-                                             .eigenvalues()(0)));
+  FloorRefiner refiner(kept, sac->normal, sac->d, options);
+  if (!refiner.Refine(up0, &fit)) return fit;
+  refiner.Finish(&fit, floor_points);
+  const Eigen::Vector3d& n = refiner.normal();
+  const double d = refiner.d();
+  const double m = static_cast<double>(refiner.inliers().size());
+  const double band = refiner.widest_band();
+  fit.extent_m = FloorExtent(kept, refiner.inliers(), n);
 
   // A surface well below the plane: the plane is not the floor.
   const double below_limit = -std::max(options.below_margin_m, band);
   int below = 0;
-  for (size_t i = 0; i < n_kept; ++i)
+  for (size_t i = 0; i < kept.size() / 3; ++i)
     if (n.dot(Eigen::Vector3d(kept[3 * i], kept[3 * i + 1], kept[3 * i + 2])) + d < below_limit) ++below;
   fit.below_share = static_cast<double>(below) / m;
 
-  const double tilt = std::acos(std::clamp(n.dot(up0), -1.0, 1.0));
-  if (fit.inliers < options.min_floor_points) {
-    fit.problem = "too few floor points (" + std::to_string(fit.inliers) + " < " +
-                  std::to_string(options.min_floor_points) + ")";
-  } else if (tilt > options.max_tilt_rad || std::abs(d - nominal.z) > options.window_m) {
-    fit.problem = "the plane found is " + Fixed(tilt / kDeg, 2) + " deg and " +
-                  Fixed(d - nominal.z, 3) + " m away from the nominal floor";
-  } else if (fit.extent_m < options.min_floor_extent_m) {
-    fit.problem = "the floor is seen only in a narrow strip (spread " + Fixed(fit.extent_m, 2) +
-                  " m < " + Fixed(options.min_floor_extent_m, 2) + " m)";
-  } else if (fit.below_share > options.max_below_share) {
-    fit.problem = "many points lie below the plane found (" + std::to_string(below) +
-                  " against " + std::to_string(fit.inliers) + " on it): it is not the floor";
-  } else if (!fit.cov.allFinite()) {
-    fit.problem = "the floor points do not determine the plane";
-  } else {
-    fit.usable = true;
-  }
+  fit.problem = FloorProblem(fit, nominal, options, n, d, up0, below);
+  fit.usable = fit.problem.empty();
   return fit;
 }
 
@@ -568,6 +751,7 @@ MountEstimate GroundCalibrator::Estimate(int sector) const { return Combine(sect
 MountEstimate GroundCalibrator::Combine(int sector, std::vector<const Frame*>* used) const {
   std::vector<const Frame*> usable;
   std::map<std::string, int> problems;
+  std::vector<const std::string*> failed;
   int offered = 0;
   for (const Frame& f : frames_) {
     if (f.sector != sector) continue;
@@ -577,6 +761,7 @@ MountEstimate GroundCalibrator::Combine(int sector, std::vector<const Frame*>* u
     } else {
       // Group problems by their wording up to the numbers, for the message.
       ++problems[f.fit.problem.substr(0, f.fit.problem.find(" ("))];
+      failed.push_back(&f.fit.problem);
     }
   }
   const std::string where =
@@ -587,17 +772,7 @@ MountEstimate GroundCalibrator::Combine(int sector, std::vector<const Frame*>* u
       why = frames_skipped_ > 0 && sector < 0 ? "no frame could be used (" + last_skip_reason_ + ")"
                                               : "no frames";
     } else {
-      const auto worst = std::max_element(problems.begin(), problems.end(),
-                                          [](const auto& a, const auto& b) { return a.second < b.second; });
-      std::string example;
-      for (const Frame& f : frames_)
-        if (f.sector == sector && !f.fit.usable &&
-            f.fit.problem.compare(0, worst->first.size(), worst->first) == 0) {
-          example = f.fit.problem;
-          break;
-        }
-      why = "none of " + std::to_string(offered) + " frames shows enough floor (" +
-            std::to_string(worst->second) + " of them: " + example + ")";
+      why = NoFloorReason(problems, failed, offered);
     }
     throw UnobservableError(
         "3D lidar height, pitch and roll" + where + ": the floor is not visible enough: " + why,
@@ -612,96 +787,38 @@ MountEstimate GroundCalibrator::Combine(int sector, std::vector<const Frame*>* u
   double sum_sin = 0.0, sum_cos = 0.0;
   for (const Frame* f : usable) sum_sin += std::sin(f->angle), sum_cos += std::cos(f->angle);
   const double angle_mean = sector >= 0 ? std::atan2(sum_sin, sum_cos) : 0.0;
-  auto offset = [&](const Frame* f) { return trend ? std::remainder(f->angle - angle_mean, 2 * kPi) : 0.0; };
-  auto pose_of = [](const Frame* f) { return Eigen::Vector3d(f->fit.pose.z, f->fit.pose.pitch, f->fit.pose.roll); };
-
-  // Frames whose floor tilts against the others: the robot stood on a slope or a bump.
-  // Deviation from the median, after an unweighted straight-line trend in the angle (turning lidar).
-  Eigen::Vector3d slope0 = Eigen::Vector3d::Zero();
-  if (trend) {
-    double sa = 0, saa = 0;
-    Eigen::Vector3d sx = Eigen::Vector3d::Zero(), sax = Eigen::Vector3d::Zero();
-    for (const Frame* f : usable) {
-      const double da = offset(f);
-      sa += da, saa += da * da, sx += pose_of(f), sax += da * pose_of(f);
-    }
-    const double nf = static_cast<double>(usable.size()), det = nf * saa - sa * sa;
-    if (det > 1e-12) slope0 = (nf * sax - sa * sx) / det;
-  }
-  std::vector<double> zs, pitches, rolls;
+  std::vector<const FrameFit*> fits;
+  std::vector<double> offsets;
   for (const Frame* f : usable) {
-    const Eigen::Vector3d p = pose_of(f) - offset(f) * slope0;
-    zs.push_back(p[0]), pitches.push_back(p[1]), rolls.push_back(p[2]);
+    fits.push_back(&f->fit);
+    offsets.push_back(trend ? std::remainder(f->angle - angle_mean, 2 * kPi) : 0.0);
   }
-  const double mz = Median(zs), mp = Median(pitches), mr = Median(rolls);
+
   const FrameOptions& fo = options_.frames;
+  const LevelFrames split = FindLevelFrames(fits, offsets, trend, fo);
   std::vector<const Frame*> level;
-  double worst_tilt = 0.0, worst_height = 0.0;
-  for (size_t k = 0; k < usable.size(); ++k) {
-    const double tilt = std::max(std::abs(pitches[k] - mp), std::abs(rolls[k] - mr));
-    const double height = std::abs(zs[k] - mz);
-    if (tilt > fo.max_tilt_rad || height > fo.max_height_m) {
-      worst_tilt = std::max(worst_tilt, tilt);
-      worst_height = std::max(worst_height, height);
-    } else {
-      level.push_back(usable[k]);
-    }
+  std::vector<const FrameFit*> level_fits;
+  std::vector<double> level_offsets;
+  for (size_t k : split.level) {
+    level.push_back(usable[k]);
+    level_fits.push_back(fits[k]);
+    level_offsets.push_back(offsets[k]);
   }
   const int tilted = static_cast<int>(usable.size() - level.size());
   if (level.empty() || tilted > fo.max_tilted_share * static_cast<double>(usable.size())) {
     throw UnobservableError(
         "3D lidar height, pitch and roll" + where + ": the floor is not one level plane across frames: " +
             std::to_string(tilted) + " of " + std::to_string(usable.size()) +
-            " frames tilt against the others by up to " + Fixed(worst_tilt / kDeg, 2) + " deg / " +
-            Fixed(worst_height, 3) + " m (limits " + Fixed(fo.max_tilt_rad / kDeg, 2) + " deg, " +
+            " frames tilt against the others by up to " + Fixed(split.worst_tilt / kDeg, 2) + " deg / " +
+            Fixed(split.worst_height, 3) + " m (limits " + Fixed(fo.max_tilt_rad / kDeg, 2) + " deg, " +
             Fixed(fo.max_height_m, 3) + " m)",
         "the robot stood on a slope, ramp or uneven floor in part of the recording: record on a "
         "level floor");
   }
 
-  // Inverse-covariance weighted least squares of the frames' poses on
-  // [I, da I, da^2 I] (a constant; for a turning lidar also the trend and its
-  // curvature, so the constant is the pose at the mean angle); the covariance
-  // is inflated by the scatter about it (Birge ratio) when > 1.
-  const int order = !trend ? 0 : level.size() >= 4 ? 2 : level.size() >= 3 ? 1 : 0;
-  const int unknowns = 3 * (order + 1);
-  Eigen::MatrixXd a = Eigen::MatrixXd::Zero(unknowns, unknowns);
-  Eigen::VectorXd rhs = Eigen::VectorXd::Zero(unknowns);
-  std::vector<Eigen::Matrix3d> weights;
-  weights.reserve(level.size());
-  long points = 0, inliers = 0;
-  double sum_r2 = 0.0;
-  for (const Frame* f : level) {
-    const Eigen::Matrix3d w = f->fit.cov.inverse();
-    weights.push_back(w);
-    const double da = offset(f);
-    Eigen::MatrixXd j(3, unknowns);
-    for (int k = 0; k <= order; ++k) j.middleCols<3>(3 * k) = std::pow(da, k) * Eigen::Matrix3d::Identity();
-    a += j.transpose() * w * j;
-    rhs += j.transpose() * w * pose_of(f);
-    points += f->fit.points;
-    inliers += f->fit.inliers;
-    sum_r2 += f->fit.rms_m * f->fit.rms_m * f->fit.inliers;
-  }
-  const Eigen::MatrixXd a_inv = a.inverse();
-  const Eigen::VectorXd x = a_inv * rhs;
-  double chi2 = 0.0;
-  for (size_t k = 0; k < level.size(); ++k) {
-    Eigen::Vector3d e = pose_of(level[k]);
-    for (int o = 0; o <= order; ++o) e -= std::pow(offset(level[k]), o) * x.segment<3>(3 * o);
-    chi2 += e.dot(weights[k] * e);
-  }
-  MountEstimate est;
-  const int dof = 3 * static_cast<int>(level.size()) - unknowns;
-  est.birge_ratio = dof > 0 ? std::sqrt(chi2 / dof) : 1.0;
-  const Eigen::Matrix3d cov = a_inv.topLeftCorner<3, 3>() * std::max(1.0, est.birge_ratio * est.birge_ratio);
-  est.value = {x[0], x[1], x[2]};
-  est.std = {std::sqrt(cov(0, 0)), std::sqrt(cov(1, 1)), std::sqrt(cov(2, 2))};
+  MountEstimate est = WeightedMount(level_fits, level_offsets, trend);
   est.angle = angle_mean;
-  est.frames = static_cast<int>(level.size());
   est.frames_tilted = tilted;
-  est.inliers = points > 0 ? static_cast<double>(inliers) / static_cast<double>(points) : 0.0;
-  est.rms_m = inliers > 0 ? std::sqrt(sum_r2 / static_cast<double>(inliers)) : 0.0;
   if (used) *used = level;
   return est;
 }

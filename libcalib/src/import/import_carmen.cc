@@ -88,6 +88,75 @@ int64_t Stamp(const TextReader& reader, const std::vector<std::string>& f, std::
   return ParseSecondsAsMicros(reader, f[ipc], FieldName(ipc, "ipc_timestamp"));
 }
 
+// A FLASER line: the odometry it carries and its scan (the old format: the geometry from
+// the beam count); false when `order` drops its stamp.
+bool ReadFlaser(const TextReader& reader, const std::vector<std::string>& f, StampOrder* order,
+                OdometryRecord* odom, agvcal::laser_scan_t* scan) {
+  const int64_t n = Count(reader, f, 1, "num_readings");
+  ExpectFields(reader, f, 2 + n + 9,
+               "FLASER n r1..rn x y theta odom_x odom_y odom_theta ipc_timestamp "
+               "ipc_hostname logger_timestamp");
+  double angle_min = 0, increment = 0;
+  if (!FlaserGeometry(n, &angle_min, &increment))
+    reader.Fail("FLASER with " + std::to_string(n) +
+                " readings: its geometry is not in the line and CARMEN's convention "
+                "covers 180, 181, 361 and 401 readings only");
+  const std::size_t p = 2 + n;
+  OdometryRecord& o = *odom;
+  for (std::size_t k = p; k < p + 3; ++k) ParseNumber(reader, f[k], FieldName(k, "laser pose"));
+  o.pose = {ParseNumber(reader, f[p + 3], FieldName(p + 3, "odom_x")),
+            ParseNumber(reader, f[p + 4], FieldName(p + 4, "odom_y")),
+            ParseNumber(reader, f[p + 5], FieldName(p + 5, "odom_theta"))};
+  o.utime = Stamp(reader, f, p + 6);
+  std::vector<float> ranges = Ranges(reader, f, 2, n, kSickNoReturn);
+  if (!order->Accept(reader, o.utime)) return false;
+  *scan = MakeScan(o.utime, angle_min, increment, 0.0, kSickNoReturn, std::move(ranges));
+  return true;
+}
+
+// A RAWLASER1 line: its scan, with the remissions as intensities when there is one per
+// beam; false when `order` drops its stamp.
+bool ReadRawlaser(const TextReader& reader, const std::vector<std::string>& f, StampOrder* order,
+                  agvcal::laser_scan_t* scan) {
+  const int64_t n = Count(reader, f, 8, "num_readings");
+  const int64_t nrem = Count(reader, f, 9 + n, "num_remissions");
+  ExpectFields(reader, f, 9 + n + 1 + nrem + 3,
+               "RAWLASER1 laser_type start_angle fov resolution max_range accuracy "
+               "remission_mode n r1..rn m e1..em ipc_timestamp ipc_hostname logger_timestamp");
+  const double start = ParseNumber(reader, f[2], FieldName(2, "start_angle"));
+  const double resolution = ParseNumber(reader, f[4], FieldName(4, "angular_resolution"));
+  const double max_range = ParseNumber(reader, f[5], FieldName(5, "maximum_range"));
+  if (max_range <= 0) reader.Fail(FieldName(5, "maximum_range") + ": must be > 0, got " + f[5]);
+  const int64_t utime = Stamp(reader, f, 9 + n + 1 + nrem);
+  *scan = MakeScan(utime, start, resolution, 0.0, max_range, Ranges(reader, f, 9, n, max_range));
+  if (nrem == n) {
+    for (int64_t i = 0; i < nrem; ++i) {
+      const std::size_t k = 10 + n + i;
+      scan->intensities.push_back(
+          static_cast<float>(ParseNumber(reader, f[k], FieldName(k, "remission"))));
+    }
+    scan->nintensities = static_cast<int32_t>(nrem);
+  }
+  return order->Accept(reader, utime);
+}
+
+// An ODOM line: pose and velocities; false when `order` drops its stamp.
+bool ReadOdom(const TextReader& reader, const std::vector<std::string>& f, StampOrder* order,
+              OdometryRecord* odom) {
+  ExpectFields(reader, f, 10, "ODOM x y theta tv rv accel ipc_timestamp ipc_hostname "
+                              "logger_timestamp");
+  OdometryRecord& o = *odom;
+  o.pose = {ParseNumber(reader, f[1], FieldName(1, "x")),
+            ParseNumber(reader, f[2], FieldName(2, "y")),
+            ParseNumber(reader, f[3], FieldName(3, "theta"))};
+  o.has_velocity = true;
+  o.tv = ParseNumber(reader, f[4], FieldName(4, "tv"));
+  o.rv = ParseNumber(reader, f[5], FieldName(5, "rv"));
+  ParseNumber(reader, f[6], FieldName(6, "accel"));
+  o.utime = Stamp(reader, f, 7);
+  return order->Accept(reader, o.utime);
+}
+
 }  // namespace
 
 ImportSummary ImportCarmen(const std::string& path, const RobotDescription& robot,
@@ -111,63 +180,18 @@ ImportSummary ImportCarmen(const std::string& path, const RobotDescription& robo
     }
     const std::string& tag = f[0];
     if (tag == "FLASER") {
-      const int64_t n = Count(reader, f, 1, "num_readings");
-      ExpectFields(reader, f, 2 + n + 9,
-                   "FLASER n r1..rn x y theta odom_x odom_y odom_theta ipc_timestamp "
-                   "ipc_hostname logger_timestamp");
-      double angle_min = 0, increment = 0;
-      if (!FlaserGeometry(n, &angle_min, &increment))
-        reader.Fail("FLASER with " + std::to_string(n) +
-                    " readings: its geometry is not in the line and CARMEN's convention "
-                    "covers 180, 181, 361 and 401 readings only");
-      const std::size_t p = 2 + n;
       OdometryRecord o;
-      for (std::size_t k = p; k < p + 3; ++k) ParseNumber(reader, f[k], FieldName(k, "laser pose"));
-      o.pose = {ParseNumber(reader, f[p + 3], FieldName(p + 3, "odom_x")),
-                ParseNumber(reader, f[p + 4], FieldName(p + 4, "odom_y")),
-                ParseNumber(reader, f[p + 5], FieldName(p + 5, "odom_theta"))};
-      o.utime = Stamp(reader, f, p + 6);
-      std::vector<float> ranges = Ranges(reader, f, 2, n, kSickNoReturn);
-      if (!flaser_order.Accept(reader, o.utime)) continue;
+      agvcal::laser_scan_t scan;
+      if (!ReadFlaser(reader, f, &flaser_order, &o, &scan)) continue;
       flaser_odom.push_back(o);
-      flaser_scans.push_back(
-          MakeScan(o.utime, angle_min, increment, 0.0, kSickNoReturn, std::move(ranges)));
+      flaser_scans.push_back(std::move(scan));
     } else if (tag == "RAWLASER1") {
-      const int64_t n = Count(reader, f, 8, "num_readings");
-      const int64_t nrem = Count(reader, f, 9 + n, "num_remissions");
-      ExpectFields(reader, f, 9 + n + 1 + nrem + 3,
-                   "RAWLASER1 laser_type start_angle fov resolution max_range accuracy "
-                   "remission_mode n r1..rn m e1..em ipc_timestamp ipc_hostname logger_timestamp");
-      const double start = ParseNumber(reader, f[2], FieldName(2, "start_angle"));
-      const double resolution = ParseNumber(reader, f[4], FieldName(4, "angular_resolution"));
-      const double max_range = ParseNumber(reader, f[5], FieldName(5, "maximum_range"));
-      if (max_range <= 0) reader.Fail(FieldName(5, "maximum_range") + ": must be > 0, got " + f[5]);
-      const int64_t utime = Stamp(reader, f, 9 + n + 1 + nrem);
-      agvcal::laser_scan_t scan =
-          MakeScan(utime, start, resolution, 0.0, max_range, Ranges(reader, f, 9, n, max_range));
-      if (nrem == n) {
-        for (int64_t i = 0; i < nrem; ++i) {
-          const std::size_t k = 10 + n + i;
-          scan.intensities.push_back(
-              static_cast<float>(ParseNumber(reader, f[k], FieldName(k, "remission"))));
-        }
-        scan.nintensities = static_cast<int32_t>(nrem);
-      }
-      if (!rawlaser_order.Accept(reader, utime)) continue;
+      agvcal::laser_scan_t scan;
+      if (!ReadRawlaser(reader, f, &rawlaser_order, &scan)) continue;
       rawlaser_scans.push_back(std::move(scan));
     } else if (tag == "ODOM") {
-      ExpectFields(reader, f, 10, "ODOM x y theta tv rv accel ipc_timestamp ipc_hostname "
-                                  "logger_timestamp");
       OdometryRecord o;
-      o.pose = {ParseNumber(reader, f[1], FieldName(1, "x")),
-                ParseNumber(reader, f[2], FieldName(2, "y")),
-                ParseNumber(reader, f[3], FieldName(3, "theta"))};
-      o.has_velocity = true;
-      o.tv = ParseNumber(reader, f[4], FieldName(4, "tv"));
-      o.rv = ParseNumber(reader, f[5], FieldName(5, "rv"));
-      ParseNumber(reader, f[6], FieldName(6, "accel"));
-      o.utime = Stamp(reader, f, 7);
-      if (!odom_order.Accept(reader, o.utime)) continue;
+      if (!ReadOdom(reader, f, &odom_order, &o)) continue;
       odom.push_back(o);
     } else if (IsRecordName(tag)) {
       ++skipped[tag];

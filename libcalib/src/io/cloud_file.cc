@@ -86,6 +86,293 @@ struct PcdField {
   size_t offset = 0;  // within a binary point record
 };
 
+[[noreturn]] void FailLine(const std::string& path, int line, const std::string& problem) {
+  throw InputError(path, "line " + std::to_string(line), problem);
+}
+
+// What a PCD header says (ReadPcd).
+struct PcdHeader {
+  std::vector<PcdField> fields;
+  bool have_fields = false, have_size = false, have_type = false, have_count = false;
+  long long width = -1, height = -1, points = -1;
+  Eigen::Vector3d vp_t = Eigen::Vector3d::Zero();
+  Eigen::Quaterniond vp_q = Eigen::Quaterniond::Identity();
+  std::string data_kind;  // ascii, binary or binary_compressed; empty before the DATA line
+  size_t data_start = 0;  // first byte after the DATA line
+  int data_line = 0;      // line number of the DATA line
+  int ix = -1, iy = -1, iz = -1;  // the fields x, y and z
+  size_t record = 0;              // bytes of one point (binary)
+};
+
+// One header line, `key` and its `values` (line `line_number` of `path`), into `h`.
+void ParsePcdHeaderLine(const std::string& path, int line_number, const std::string& key,
+                        const std::vector<std::string>& values, PcdHeader* h) {
+  std::vector<PcdField>& fields = h->fields;
+  auto number = [&](const std::string& text, const std::string& what) {
+    char* stop = nullptr;
+    const double v = std::strtod(text.c_str(), &stop);
+    if (stop == text.c_str() || *stop != '\0' || !std::isfinite(v))
+      FailLine(path, line_number, what + ": '" + text + "' is not a number");
+    return v;
+  };
+  auto whole = [&](const std::string& text, const std::string& what, long long min) {
+    const double v = number(text, what);
+    if (v != std::floor(v) || v < static_cast<double>(min) || v > 4e9)
+      FailLine(path, line_number, what + ": '" + text + "' must be a whole number >= " + std::to_string(min));
+    return static_cast<long long>(v);
+  };
+  auto check_columns = [&](const std::string& what) {
+    if (!h->have_fields) FailLine(path, line_number, what + " before FIELDS");
+    if (values.size() != fields.size())
+      FailLine(path, line_number, what + " has " + std::to_string(values.size()) + " entries for " +
+                                      std::to_string(fields.size()) + " FIELDS");
+  };
+  if (key == "VERSION") {
+    return;
+  } else if (key == "FIELDS" || key == "COLUMNS") {
+    if (values.empty()) FailLine(path, line_number, "FIELDS names no field");
+    fields.clear();
+    for (const auto& v : values) fields.push_back(PcdField{v});
+    h->have_fields = true;
+  } else if (key == "SIZE") {
+    check_columns("SIZE");
+    for (size_t i = 0; i < values.size(); ++i) {
+      const long long s = whole(values[i], "SIZE of " + fields[i].name, 1);
+      if (s != 1 && s != 2 && s != 4 && s != 8) FailLine(path, line_number, "SIZE of " + fields[i].name + " must be 1, 2, 4 or 8");
+      fields[i].size = static_cast<int>(s);
+    }
+    h->have_size = true;
+  } else if (key == "TYPE") {
+    check_columns("TYPE");
+    for (size_t i = 0; i < values.size(); ++i) {
+      if (values[i] != "F" && values[i] != "I" && values[i] != "U")
+        FailLine(path, line_number, "TYPE of " + fields[i].name + " must be F, I or U, got '" + values[i] + "'");
+      fields[i].type = values[i][0];
+    }
+    h->have_type = true;
+  } else if (key == "COUNT") {
+    check_columns("COUNT");
+    for (size_t i = 0; i < values.size(); ++i)
+      fields[i].count = static_cast<int>(whole(values[i], "COUNT of " + fields[i].name, 1));
+    h->have_count = true;
+  } else if (key == "WIDTH" || key == "HEIGHT" || key == "POINTS") {
+    if (values.size() != 1) FailLine(path, line_number, key + " needs one number");
+    const long long v = whole(values[0], key, key == "POINTS" ? 0 : 1);
+    (key == "WIDTH" ? h->width : key == "HEIGHT" ? h->height : h->points) = v;
+  } else if (key == "VIEWPOINT") {
+    if (values.size() != 7) FailLine(path, line_number, "VIEWPOINT needs 7 numbers (tx ty tz qw qx qy qz)");
+    double v[7];
+    for (int i = 0; i < 7; ++i) v[i] = number(values[i], "VIEWPOINT");
+    h->vp_t = {v[0], v[1], v[2]};
+    h->vp_q = Eigen::Quaterniond(v[3], v[4], v[5], v[6]);
+    if (std::abs(h->vp_q.norm() - 1.0) > 1e-3) FailLine(path, line_number, "VIEWPOINT quaternion is not of unit length");
+    h->vp_q.normalize();
+  } else if (key == "DATA") {
+    if (values.size() != 1 || (values[0] != "ascii" && values[0] != "binary" && values[0] != "binary_compressed"))
+      FailLine(path, line_number, "DATA must be ascii, binary or binary_compressed");
+    h->data_kind = values[0];
+  } else {
+    FailLine(path, line_number, "unknown header line '" + key + "' (not a PCD file?)");
+  }
+}
+
+// The header of the PCD file `path` (its `bytes`) up to the DATA line, checked: the
+// fields x, y and z, and the point count.
+PcdHeader ReadPcdHeader(const std::string& path, const std::vector<char>& bytes) {
+  PcdHeader h;
+  size_t pos = 0;
+  int line_number = 0;
+  while (h.data_kind.empty()) {
+    if (pos >= bytes.size())
+      throw InputError(path, "line " + std::to_string(line_number), "header ends without a DATA line (not a PCD file?)");
+    const size_t end = std::find(bytes.begin() + pos, bytes.end(), '\n') - bytes.begin();
+    std::string line(bytes.begin() + pos, bytes.begin() + end);
+    pos = end + 1;
+    ++line_number;
+    if (!line.empty() && line.back() == '\r') line.pop_back();
+    if (line.empty() || line[0] == '#') continue;
+    std::istringstream in(line);
+    std::string key;
+    in >> key;
+    std::vector<std::string> values;
+    for (std::string v; in >> v;) values.push_back(v);
+    ParsePcdHeaderLine(path, line_number, key, values, &h);
+  }
+  h.data_start = pos;
+  h.data_line = line_number;
+  const int data_line = line_number;
+  std::vector<PcdField>& fields = h.fields;
+  if (!h.have_fields || !h.have_size || !h.have_type)
+    FailLine(path, data_line, "header lacks " + std::string(!h.have_fields ? "FIELDS" : !h.have_size ? "SIZE" : "TYPE"));
+  if (!h.have_count)
+    for (auto& f : fields) f.count = 1;
+  if (h.width < 0 || h.height < 0) FailLine(path, data_line, "header lacks WIDTH or HEIGHT");
+  if (static_cast<double>(h.width) * static_cast<double>(h.height) > 4e9)
+    FailLine(path, data_line, "WIDTH x HEIGHT is more than 4e9 points");
+  if (h.points < 0) h.points = h.width * h.height;
+  if (h.points != h.width * h.height)
+    FailLine(path, data_line, "POINTS " + std::to_string(h.points) + " differs from WIDTH x HEIGHT " +
+                                  std::to_string(h.width * h.height));
+  for (size_t i = 0; i < fields.size(); ++i) {
+    fields[i].offset = h.record;
+    h.record += static_cast<size_t>(fields[i].size) * fields[i].count;
+    if (fields[i].name == "x") h.ix = static_cast<int>(i);
+    if (fields[i].name == "y") h.iy = static_cast<int>(i);
+    if (fields[i].name == "z") h.iz = static_cast<int>(i);
+  }
+  if (h.ix < 0 || h.iy < 0 || h.iz < 0) FailLine(path, data_line, "FIELDS lacks x, y or z");
+  for (int i : {h.ix, h.iy, h.iz})
+    if (fields[i].type != 'F' || (fields[i].size != 4 && fields[i].size != 8))
+      FailLine(path, data_line, "field " + fields[i].name + " must be TYPE F of SIZE 4 or 8");
+  return h;
+}
+
+// A float field's value (SIZE 4 or 8) at `where`.
+double PcdValue(const char* where, const PcdField& f) {
+  if (f.size == 4) {
+    float v;
+    std::memcpy(&v, where, 4);
+    return static_cast<double>(v);
+  }
+  double v;
+  std::memcpy(&v, where, 8);
+  return v;
+}
+
+// Adds the points, given in the header's VIEWPOINT frame, to a cloud in the sensor's frame.
+class PcdPoints {
+ public:
+  PcdPoints(const PcdHeader& h, CloudFileData* out)
+      : identity_(h.vp_t.isZero() && h.vp_q.isApprox(Eigen::Quaterniond::Identity())),
+        vp_inverse_(h.vp_q.conjugate().toRotationMatrix()),
+        vp_t_(h.vp_t),
+        out_(out) {}
+  void Add(double x, double y, double z) const {
+    if (identity_) return AddPoint(out_, x, y, z);
+    const Eigen::Vector3d p = vp_inverse_ * (Eigen::Vector3d(x, y, z) - vp_t_);
+    AddPoint(out_, p.x(), p.y(), p.z());
+  }
+
+ private:
+  const bool identity_;
+  const Eigen::Matrix3d vp_inverse_;
+  const Eigen::Vector3d vp_t_;
+  CloudFileData* out_;
+};
+
+// DATA ascii: a line of numbers per point (blank lines skipped).
+void ReadPcdAscii(const std::string& path, const std::vector<char>& bytes, const PcdHeader& h,
+                  const PcdPoints& points, CloudFileData* out) {
+  const std::vector<PcdField>& fields = h.fields;
+  const size_t n = static_cast<size_t>(h.points);
+  size_t pos = h.data_start;
+  int line_number = h.data_line;
+  size_t columns = 0;
+  for (const auto& f : fields) columns += f.count;
+  // Column of each of x, y, z.
+  auto column_of = [&](int field) {
+    size_t c = 0;
+    for (int i = 0; i < field; ++i) c += fields[i].count;
+    return c;
+  };
+  const size_t cx = column_of(h.ix), cy = column_of(h.iy), cz = column_of(h.iz);
+  out->xyz.reserve(3 * std::min<size_t>(n, 1 << 24));
+  size_t read = 0;
+  std::vector<double> row(columns);
+  while (read < n) {
+    if (pos >= bytes.size())
+      throw InputError(path, "line " + std::to_string(line_number + 1),
+                       "truncated: " + std::to_string(read) + " of " + std::to_string(n) + " points");
+    const size_t end = std::find(bytes.begin() + pos, bytes.end(), '\n') - bytes.begin();
+    std::string line(bytes.begin() + pos, bytes.begin() + end);
+    pos = end + 1;
+    ++line_number;
+    if (line.find_first_not_of(" \t\r") == std::string::npos) continue;
+    const char* p = line.c_str();
+    for (size_t c = 0; c < columns; ++c) {
+      char* stop = nullptr;
+      row[c] = std::strtod(p, &stop);
+      if (stop == p)
+        throw InputError(path, "line " + std::to_string(line_number),
+                         "expected " + std::to_string(columns) + " numbers per point, found " + std::to_string(c));
+      p = stop;
+    }
+    while (*p == ' ' || *p == '\t' || *p == '\r') ++p;
+    if (*p != '\0')
+      throw InputError(path, "line " + std::to_string(line_number),
+                       "more than " + std::to_string(columns) + " values, or not a number: '" + std::string(p) + "'");
+    points.Add(row[cx], row[cy], row[cz]);
+    ++read;
+  }
+}
+
+// DATA binary: one record of all fields per point.
+void ReadPcdBinary(const std::string& path, const std::vector<char>& bytes, const PcdHeader& h,
+                   const PcdPoints& points, CloudFileData* out) {
+  const std::vector<PcdField>& fields = h.fields;
+  const size_t n = static_cast<size_t>(h.points);
+  const size_t pos = h.data_start, record = h.record;
+  const size_t data_bytes = bytes.size() - std::min(pos, bytes.size());
+  if (data_bytes / record < n)
+    throw InputError(path, "byte " + std::to_string(bytes.size()),
+                     "truncated: " + std::to_string(n) + " points of " + std::to_string(record) +
+                         " bytes need " + std::to_string(n * record) + " bytes after the header, found " +
+                         std::to_string(data_bytes));
+  out->xyz.reserve(3 * n);
+  const char* base = bytes.data() + pos;
+  for (size_t i = 0; i < n; ++i) {
+    const char* r = base + i * record;
+    points.Add(PcdValue(r + fields[h.ix].offset, fields[h.ix]), PcdValue(r + fields[h.iy].offset, fields[h.iy]),
+               PcdValue(r + fields[h.iz].offset, fields[h.iz]));
+  }
+}
+
+// DATA binary_compressed: sizes, then LZF; fields stored one after another.
+void ReadPcdCompressed(const std::string& path, const std::vector<char>& bytes, const PcdHeader& h,
+                       const PcdPoints& points, CloudFileData* out) {
+  const std::vector<PcdField>& fields = h.fields;
+  const size_t n = static_cast<size_t>(h.points);
+  const size_t pos = h.data_start;
+  const size_t data_bytes = bytes.size() - std::min(pos, bytes.size());
+  if (data_bytes < 8)
+    throw InputError(path, "byte " + std::to_string(pos), "truncated: no compressed-size header after DATA");
+  uint32_t compressed = 0, uncompressed = 0;
+  std::memcpy(&compressed, bytes.data() + pos, 4);
+  std::memcpy(&uncompressed, bytes.data() + pos + 4, 4);
+  if (compressed > data_bytes - 8)
+    throw InputError(path, "byte " + std::to_string(pos),
+                     "truncated: " + std::to_string(compressed) + " compressed bytes announced, " +
+                         std::to_string(data_bytes - 8) + " present");
+  size_t expected = 0;
+  for (const auto& f : fields)
+    if (f.name != "_") expected += static_cast<size_t>(f.size) * f.count * n;
+  // LZF expands at most ~88 times (a 3-byte reference to 264 bytes): a larger
+  // claim is corrupt, and must not make us allocate it.
+  if (uncompressed != expected || expected > 90 * static_cast<size_t>(compressed) + 64)
+    throw InputError(path, "byte " + std::to_string(pos + 4),
+                     "uncompressed size " + std::to_string(uncompressed) + " does not match " +
+                         std::to_string(n) + " points of the header's fields (" + std::to_string(expected) + ")");
+  std::vector<uint8_t> raw(expected);
+  if (expected > 0 &&
+      !LzfDecompress(reinterpret_cast<const uint8_t*>(bytes.data() + pos + 8), compressed, raw.data(), raw.size()))
+    throw InputError(path, "byte " + std::to_string(pos + 8), "corrupt compressed data (LZF)");
+  // Start of each field's block.
+  std::vector<size_t> block(fields.size(), 0);
+  size_t at = 0;
+  for (size_t i = 0; i < fields.size(); ++i) {
+    if (fields[i].name == "_") continue;
+    block[i] = at;
+    at += static_cast<size_t>(fields[i].size) * fields[i].count * n;
+  }
+  out->xyz.reserve(3 * n);
+  auto element = [&](int field, size_t i) {
+    const PcdField& f = fields[field];
+    return PcdValue(reinterpret_cast<const char*>(raw.data()) + block[field] +
+                        i * static_cast<size_t>(f.size) * f.count, f);
+  };
+  for (size_t i = 0; i < n; ++i) points.Add(element(h.ix, i), element(h.iy, i), element(h.iz, i));
+}
+
 }  // namespace
 
 bool IsCloudFileName(const std::string& path) {
@@ -122,234 +409,16 @@ CloudFileData ReadKittiBin(const std::string& path) {
 
 CloudFileData ReadPcd(const std::string& path) {
   const std::vector<char> bytes = ReadBytes(path, "PCD file");
-  auto fail_line = [&](int line, const std::string& problem) -> void {
-    throw InputError(path, "line " + std::to_string(line), problem);
-  };
-  std::vector<PcdField> fields;
-  bool have_fields = false, have_size = false, have_type = false, have_count = false;
-  long long width = -1, height = -1, points = -1;
-  Eigen::Vector3d vp_t = Eigen::Vector3d::Zero();
-  Eigen::Quaterniond vp_q = Eigen::Quaterniond::Identity();
-  std::string data_kind;
-  size_t pos = 0;
-  int line_number = 0;
-  while (data_kind.empty()) {
-    if (pos >= bytes.size())
-      throw InputError(path, "line " + std::to_string(line_number), "header ends without a DATA line (not a PCD file?)");
-    const size_t end = std::find(bytes.begin() + pos, bytes.end(), '\n') - bytes.begin();
-    std::string line(bytes.begin() + pos, bytes.begin() + end);
-    pos = end + 1;
-    ++line_number;
-    if (!line.empty() && line.back() == '\r') line.pop_back();
-    if (line.empty() || line[0] == '#') continue;
-    std::istringstream in(line);
-    std::string key;
-    in >> key;
-    std::vector<std::string> values;
-    for (std::string v; in >> v;) values.push_back(v);
-    auto number = [&](const std::string& text, const std::string& what) {
-      char* stop = nullptr;
-      const double v = std::strtod(text.c_str(), &stop);
-      if (stop == text.c_str() || *stop != '\0' || !std::isfinite(v))
-        fail_line(line_number, what + ": '" + text + "' is not a number");
-      return v;
-    };
-    auto whole = [&](const std::string& text, const std::string& what, long long min) {
-      const double v = number(text, what);
-      if (v != std::floor(v) || v < static_cast<double>(min) || v > 4e9)
-        fail_line(line_number, what + ": '" + text + "' must be a whole number >= " + std::to_string(min));
-      return static_cast<long long>(v);
-    };
-    auto check_columns = [&](const std::string& what) {
-      if (!have_fields) fail_line(line_number, what + " before FIELDS");
-      if (values.size() != fields.size())
-        fail_line(line_number, what + " has " + std::to_string(values.size()) + " entries for " +
-                                   std::to_string(fields.size()) + " FIELDS");
-    };
-    if (key == "VERSION") {
-      continue;
-    } else if (key == "FIELDS" || key == "COLUMNS") {
-      if (values.empty()) fail_line(line_number, "FIELDS names no field");
-      fields.clear();
-      for (const auto& v : values) fields.push_back(PcdField{v});
-      have_fields = true;
-    } else if (key == "SIZE") {
-      check_columns("SIZE");
-      for (size_t i = 0; i < values.size(); ++i) {
-        const long long s = whole(values[i], "SIZE of " + fields[i].name, 1);
-        if (s != 1 && s != 2 && s != 4 && s != 8) fail_line(line_number, "SIZE of " + fields[i].name + " must be 1, 2, 4 or 8");
-        fields[i].size = static_cast<int>(s);
-      }
-      have_size = true;
-    } else if (key == "TYPE") {
-      check_columns("TYPE");
-      for (size_t i = 0; i < values.size(); ++i) {
-        if (values[i] != "F" && values[i] != "I" && values[i] != "U")
-          fail_line(line_number, "TYPE of " + fields[i].name + " must be F, I or U, got '" + values[i] + "'");
-        fields[i].type = values[i][0];
-      }
-      have_type = true;
-    } else if (key == "COUNT") {
-      check_columns("COUNT");
-      for (size_t i = 0; i < values.size(); ++i)
-        fields[i].count = static_cast<int>(whole(values[i], "COUNT of " + fields[i].name, 1));
-      have_count = true;
-    } else if (key == "WIDTH" || key == "HEIGHT" || key == "POINTS") {
-      if (values.size() != 1) fail_line(line_number, key + " needs one number");
-      const long long v = whole(values[0], key, key == "POINTS" ? 0 : 1);
-      (key == "WIDTH" ? width : key == "HEIGHT" ? height : points) = v;
-    } else if (key == "VIEWPOINT") {
-      if (values.size() != 7) fail_line(line_number, "VIEWPOINT needs 7 numbers (tx ty tz qw qx qy qz)");
-      double v[7];
-      for (int i = 0; i < 7; ++i) v[i] = number(values[i], "VIEWPOINT");
-      vp_t = {v[0], v[1], v[2]};
-      vp_q = Eigen::Quaterniond(v[3], v[4], v[5], v[6]);
-      if (std::abs(vp_q.norm() - 1.0) > 1e-3) fail_line(line_number, "VIEWPOINT quaternion is not of unit length");
-      vp_q.normalize();
-    } else if (key == "DATA") {
-      if (values.size() != 1 || (values[0] != "ascii" && values[0] != "binary" && values[0] != "binary_compressed"))
-        fail_line(line_number, "DATA must be ascii, binary or binary_compressed");
-      data_kind = values[0];
-    } else {
-      fail_line(line_number, "unknown header line '" + key + "' (not a PCD file?)");
-    }
-  }
-  const int data_line = line_number;
-  if (!have_fields || !have_size || !have_type)
-    fail_line(data_line, "header lacks " + std::string(!have_fields ? "FIELDS" : !have_size ? "SIZE" : "TYPE"));
-  if (!have_count)
-    for (auto& f : fields) f.count = 1;
-  if (width < 0 || height < 0) fail_line(data_line, "header lacks WIDTH or HEIGHT");
-  if (static_cast<double>(width) * static_cast<double>(height) > 4e9)
-    fail_line(data_line, "WIDTH x HEIGHT is more than 4e9 points");
-  if (points < 0) points = width * height;
-  if (points != width * height)
-    fail_line(data_line, "POINTS " + std::to_string(points) + " differs from WIDTH x HEIGHT " +
-                             std::to_string(width * height));
-  int ix = -1, iy = -1, iz = -1;
-  size_t record = 0;
-  for (size_t i = 0; i < fields.size(); ++i) {
-    fields[i].offset = record;
-    record += static_cast<size_t>(fields[i].size) * fields[i].count;
-    if (fields[i].name == "x") ix = static_cast<int>(i);
-    if (fields[i].name == "y") iy = static_cast<int>(i);
-    if (fields[i].name == "z") iz = static_cast<int>(i);
-  }
-  if (ix < 0 || iy < 0 || iz < 0) fail_line(data_line, "FIELDS lacks x, y or z");
-  for (int i : {ix, iy, iz})
-    if (fields[i].type != 'F' || (fields[i].size != 4 && fields[i].size != 8))
-      fail_line(data_line, "field " + fields[i].name + " must be TYPE F of SIZE 4 or 8");
-
+  const PcdHeader header = ReadPcdHeader(path, bytes);
   CloudFileData out;
   out.format = "pcd";
-  const size_t n = static_cast<size_t>(points);
-  const bool identity = vp_t.isZero() && vp_q.isApprox(Eigen::Quaterniond::Identity());
-  const Eigen::Matrix3d vp_inverse = vp_q.conjugate().toRotationMatrix();
-  auto add = [&](double x, double y, double z) {
-    if (identity) return AddPoint(&out, x, y, z);
-    const Eigen::Vector3d p = vp_inverse * (Eigen::Vector3d(x, y, z) - vp_t);
-    AddPoint(&out, p.x(), p.y(), p.z());
-  };
-  auto value_at = [](const char* where, const PcdField& f) {
-    if (f.size == 4) {
-      float v;
-      std::memcpy(&v, where, 4);
-      return static_cast<double>(v);
-    }
-    double v;
-    std::memcpy(&v, where, 8);
-    return v;
-  };
-  const size_t data_bytes = bytes.size() - std::min(pos, bytes.size());
-  if (data_kind == "ascii") {
-    size_t columns = 0;
-    for (const auto& f : fields) columns += f.count;
-    // Column of each of x, y, z.
-    auto column_of = [&](int field) {
-      size_t c = 0;
-      for (int i = 0; i < field; ++i) c += fields[i].count;
-      return c;
-    };
-    const size_t cx = column_of(ix), cy = column_of(iy), cz = column_of(iz);
-    out.xyz.reserve(3 * std::min<size_t>(n, 1 << 24));
-    size_t read = 0;
-    std::vector<double> row(columns);
-    while (read < n) {
-      if (pos >= bytes.size())
-        throw InputError(path, "line " + std::to_string(line_number + 1),
-                         "truncated: " + std::to_string(read) + " of " + std::to_string(n) + " points");
-      const size_t end = std::find(bytes.begin() + pos, bytes.end(), '\n') - bytes.begin();
-      std::string line(bytes.begin() + pos, bytes.begin() + end);
-      pos = end + 1;
-      ++line_number;
-      if (line.find_first_not_of(" \t\r") == std::string::npos) continue;
-      const char* p = line.c_str();
-      for (size_t c = 0; c < columns; ++c) {
-        char* stop = nullptr;
-        row[c] = std::strtod(p, &stop);
-        if (stop == p)
-          throw InputError(path, "line " + std::to_string(line_number),
-                           "expected " + std::to_string(columns) + " numbers per point, found " + std::to_string(c));
-        p = stop;
-      }
-      while (*p == ' ' || *p == '\t' || *p == '\r') ++p;
-      if (*p != '\0')
-        throw InputError(path, "line " + std::to_string(line_number),
-                         "more than " + std::to_string(columns) + " values, or not a number: '" + std::string(p) + "'");
-      add(row[cx], row[cy], row[cz]);
-      ++read;
-    }
-  } else if (data_kind == "binary") {
-    if (data_bytes / record < n)
-      throw InputError(path, "byte " + std::to_string(bytes.size()),
-                       "truncated: " + std::to_string(n) + " points of " + std::to_string(record) +
-                           " bytes need " + std::to_string(n * record) + " bytes after the header, found " +
-                           std::to_string(data_bytes));
-    out.xyz.reserve(3 * n);
-    const char* base = bytes.data() + pos;
-    for (size_t i = 0; i < n; ++i) {
-      const char* r = base + i * record;
-      add(value_at(r + fields[ix].offset, fields[ix]), value_at(r + fields[iy].offset, fields[iy]),
-          value_at(r + fields[iz].offset, fields[iz]));
-    }
-  } else {  // binary_compressed: sizes, then LZF; fields stored one after another
-    if (data_bytes < 8)
-      throw InputError(path, "byte " + std::to_string(pos), "truncated: no compressed-size header after DATA");
-    uint32_t compressed = 0, uncompressed = 0;
-    std::memcpy(&compressed, bytes.data() + pos, 4);
-    std::memcpy(&uncompressed, bytes.data() + pos + 4, 4);
-    if (compressed > data_bytes - 8)
-      throw InputError(path, "byte " + std::to_string(pos),
-                       "truncated: " + std::to_string(compressed) + " compressed bytes announced, " +
-                           std::to_string(data_bytes - 8) + " present");
-    size_t expected = 0;
-    for (const auto& f : fields)
-      if (f.name != "_") expected += static_cast<size_t>(f.size) * f.count * n;
-    // LZF expands at most ~88 times (a 3-byte reference to 264 bytes): a larger
-    // claim is corrupt, and must not make us allocate it.
-    if (uncompressed != expected || expected > 90 * static_cast<size_t>(compressed) + 64)
-      throw InputError(path, "byte " + std::to_string(pos + 4),
-                       "uncompressed size " + std::to_string(uncompressed) + " does not match " +
-                           std::to_string(n) + " points of the header's fields (" + std::to_string(expected) + ")");
-    std::vector<uint8_t> raw(expected);
-    if (expected > 0 &&
-        !LzfDecompress(reinterpret_cast<const uint8_t*>(bytes.data() + pos + 8), compressed, raw.data(), raw.size()))
-      throw InputError(path, "byte " + std::to_string(pos + 8), "corrupt compressed data (LZF)");
-    // Start of each field's block.
-    std::vector<size_t> block(fields.size(), 0);
-    size_t at = 0;
-    for (size_t i = 0; i < fields.size(); ++i) {
-      if (fields[i].name == "_") continue;
-      block[i] = at;
-      at += static_cast<size_t>(fields[i].size) * fields[i].count * n;
-    }
-    out.xyz.reserve(3 * n);
-    auto element = [&](int field, size_t i) {
-      const PcdField& f = fields[field];
-      return value_at(reinterpret_cast<const char*>(raw.data()) + block[field] +
-                          i * static_cast<size_t>(f.size) * f.count, f);
-    };
-    for (size_t i = 0; i < n; ++i) add(element(ix, i), element(iy, i), element(iz, i));
+  const PcdPoints points(header, &out);
+  if (header.data_kind == "ascii") {
+    ReadPcdAscii(path, bytes, header, points, &out);
+  } else if (header.data_kind == "binary") {
+    ReadPcdBinary(path, bytes, header, points, &out);
+  } else {
+    ReadPcdCompressed(path, bytes, header, points, &out);
   }
   return out;
 }

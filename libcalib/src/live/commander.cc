@@ -106,6 +106,15 @@ struct Commander::Impl {
   bool steered() const { return drive != DriveType::kDifferential; }
   bool finished() const { return index >= phases.size(); }
 
+  // Construction (the constructor's steps, defined next to it).
+  Twist2 SteeredDirection(const TrajectorySegment& seg, const Limits& lim, const std::string& origin,
+                          const std::string& place) const;
+  Motion SegmentMotion(const TrajectorySegment& seg, const DriveModel& model, const Limits& lim,
+                       const std::pair<double, double>& progress_point, const std::string& origin,
+                       const std::string& place) const;
+  void PlanPhases(std::vector<double> steer, double start_delay_s,
+                  const std::vector<TrajectorySegment>& segments);
+
   double SteerDuration(const std::vector<double>& from, const std::vector<double>& to) const {
     double largest = 0.0;
     for (size_t i = 0; i < from.size(); ++i) largest = std::max(largest, std::abs(to[i] - from[i]));
@@ -227,6 +236,161 @@ double PointSpeed(const Twist2& t, double x, double y) {
 
 // ---------------------------------------------------------------------------------------------
 
+// The direction of a steered drive's motion for the segment's steering angles (any scale,
+// signed by the segment's speed): the twist both wheels' rolling constraints allow.
+Twist2 Commander::Impl::SteeredDirection(const TrajectorySegment& seg, const Limits& lim,
+                                         const std::string& origin, const std::string& place) const {
+  const size_t n = WheelRoles(drive).size();
+  if (seg.steer.size() != n) {
+    throw InputError(origin, place, "needs one steering angle per wheel role");
+  }
+  for (double a : seg.steer) {
+    if (!(std::abs(a) <= lim.max_steer)) {
+      throw InputError(origin, place,
+                       Fmt("steering angle %.3f rad beyond max_steer %.3f rad", a,
+                           lim.max_steer));
+    }
+  }
+  if (seg.speed == 0.0) throw InputError(origin, place, "needs a non-zero speed");
+  Row r[2];
+  if (drive == DriveType::kTricycle) {
+    r[0] = {0.0, 1.0, 0.0};  // the rear axle does not slide sideways
+    r[1] = RollingConstraint(contacts[0].first, contacts[0].second, seg.steer[0]);
+  } else {
+    r[0] = RollingConstraint(contacts[0].first, contacts[0].second, seg.steer[0]);
+    r[1] = RollingConstraint(contacts[1].first, contacts[1].second, seg.steer[1]);
+  }
+  // The twist both constraints allow: their cross product.
+  Twist2 dir = {r[0].b * r[1].c - r[0].c * r[1].b, r[0].c * r[1].a - r[0].a * r[1].c,
+                r[0].a * r[1].b - r[0].b * r[1].a};
+  const double norm = std::hypot(dir.vx, dir.vy, dir.omega);
+  const double scale = std::hypot(r[0].a, r[0].b, r[0].c) * std::hypot(r[1].a, r[1].b, r[1].c);
+  if (norm < 1e-3 * scale) {
+    throw InputError(origin, place,
+                     "the steering angles do not determine the motion (degenerate geometry)");
+  }
+  // Orient it so that the first steered wheel rolls forwards, then apply the sign of travel.
+  const double wx = contacts[0].first, wy = contacts[0].second;
+  double along = (dir.vx - dir.omega * wy) * std::cos(seg.steer[0]) +
+                 (dir.vy + dir.omega * wx) * std::sin(seg.steer[0]);
+  if (std::abs(along) < 1e-9 * norm && drive == DriveType::kDualSteer) {
+    const double x2 = contacts[1].first, y2 = contacts[1].second;
+    along = (dir.vx - dir.omega * y2) * std::cos(seg.steer[1]) +
+            (dir.vy + dir.omega * x2) * std::sin(seg.steer[1]);
+  }
+  const double sign = (along < 0 ? -1.0 : 1.0) * (seg.speed < 0 ? -1.0 : 1.0);
+  return {sign * dir.vx, sign * dir.vy, sign * dir.omega};
+}
+
+// The motion of one segment per unit progress rate, within the robot's limits.
+Motion Commander::Impl::SegmentMotion(const TrajectorySegment& seg, const DriveModel& model,
+                                      const Limits& lim, const std::pair<double, double>& progress_point,
+                                      const std::string& origin, const std::string& place) const {
+  const size_t n = WheelRoles(drive).size();
+  const bool by_angle = seg.angle > 0.0;
+  if (!(seg.distance >= 0.0 && seg.angle >= 0.0 && seg.pause_s >= 0.0) ||
+      (!by_angle && seg.distance <= 0.0)) {
+    throw InputError(origin, place, "needs a positive distance or angle and a pause >= 0");
+  }
+  Motion m;
+  m.length = by_angle ? seg.angle : seg.distance;
+  // Direction of the motion (any scale) and the requested peak of its progress rate.
+  Twist2 dir;
+  double request = std::abs(seg.speed);
+  if (drive == DriveType::kDifferential) {
+    dir = {seg.speed, 0.0, seg.omega};
+    if (by_angle) request = std::abs(seg.omega);
+  } else {
+    dir = SteeredDirection(seg, lim, origin, place);
+  }
+  // Normalise to one unit of progress per second.
+  const double unit = by_angle ? std::abs(dir.omega)
+                               : PointSpeed(dir, progress_point.first, progress_point.second);
+  if (!(unit > kTiny * std::max(1.0, std::hypot(dir.vx, dir.vy, dir.omega)))) {
+    throw InputError(origin, place,
+                     by_angle ? "an angle segment must turn" : "a distance segment must move");
+  }
+  m.xi = {dir.vx / unit, dir.vy / unit, dir.omega / unit};
+  if (drive != DriveType::kDifferential && by_angle) {
+    // The requested speed is of the progress point; express it as a turn rate.
+    request *= std::abs(m.xi.omega) /
+               std::max(kTiny, PointSpeed(m.xi, progress_point.first, progress_point.second));
+  }
+  // The fastest point (reference point or a wheel) bounds speed and acceleration.
+  double fastest = PointSpeed(m.xi, 0.0, 0.0);
+  for (const auto& c : contacts) fastest = std::max(fastest, PointSpeed(m.xi, c.first, c.second));
+  double peak = request;
+  if (fastest > kTiny) peak = std::min(peak, lim.max_speed / fastest);
+  if (std::abs(m.xi.omega) > kTiny) peak = std::min(peak, lim.max_omega / std::abs(m.xi.omega));
+  m.peak = peak * (1.0 - kLimitMargin);
+  m.accel = lim.max_accel / std::max(fastest, kTiny) * (1.0 - kLimitMargin);
+  if (!(m.peak > 0.0)) throw InputError(origin, place, "has no speed");
+  if (drive != DriveType::kDifferential) {
+    m.steer = seg.steer;
+    const WheelSetpoint ws = model.Inverse(m.xi);
+    m.wheel_speed = ws.speed;
+    for (size_t i = 0; i < n; ++i) {
+      // Inverse() may point a wheel the other way round and reverse its drive instead.
+      const double diff = ws.steer[i] - offsets[i] - seg.steer[i];
+      if (std::cos(diff) < 0.0) m.wheel_speed[i] = -m.wheel_speed[i];
+      const double contact = PointSpeed(m.xi, contacts[i].first, contacts[i].second);
+      if (contact > 1e-6 && std::abs(std::sin(diff)) > 1e-6) {
+        throw std::logic_error(origin + ": " + place +
+                               ": kinematic model disagrees with the steering geometry");
+      }
+    }
+  }
+  return m;
+}
+
+// The phase plan: start delay, then per segment steering ramp and settle (when the
+// steering changes), drive, pause; finally the steering back to zero. `steer`: the
+// steering at the start.
+void Commander::Impl::PlanPhases(std::vector<double> steer, double start_delay_s,
+                                 const std::vector<TrajectorySegment>& segments) {
+  auto hold = [&](int segment, double duration) {
+    Phase p;
+    p.kind = PhaseKind::kHold;
+    p.segment = segment;
+    p.duration = duration;
+    p.steer_from = steer;
+    phases.push_back(p);
+  };
+  // Turns the wheels to `target` at the steering-rate limit, then lets them settle.
+  auto turn_to = [&](int segment, const std::vector<double>& target, double settle) {
+    if (SteerDuration(steer, target) <= 0.0) return;
+    Phase p;
+    p.kind = PhaseKind::kSteer;
+    p.segment = segment;
+    p.steer_from = steer;
+    p.steer_to = target;
+    p.duration = SteerDuration(steer, target);
+    phases.push_back(p);
+    steer = target;
+    if (settle > 0.0) hold(segment, settle);
+  };
+  hold(0, std::max(0.0, start_delay_s));
+  for (size_t k = 0; k < motions.size(); ++k) {
+    const Motion& m = motions[k];
+    const int seg = static_cast<int>(k);
+    if (steered()) turn_to(seg, m.steer, settle_s);
+    Phase p;
+    p.kind = PhaseKind::kDrive;
+    p.segment = seg;
+    p.motion = seg;
+    p.steer_from = steer;
+    p.profile = Profile::Make(m.length, m.peak, m.accel);
+    p.duration = p.profile.duration();
+    phases.push_back(p);
+    hold(seg, segments[k].pause_s);
+  }
+  if (steered()) {
+    const int last = std::max(0, static_cast<int>(motions.size()) - 1);
+    turn_to(last, std::vector<double>(WheelRoles(drive).size(), 0.0), 0.0 /* no settle before the stop */);
+  }
+  for (const Phase& p : phases) nominal_duration += p.duration;
+}
+
 Commander::Commander(const RobotDescription& robot, Trajectory trajectory, CommanderOptions options)
     : robot_(robot), trajectory_(std::move(trajectory)), options_(std::move(options)),
       impl_(std::make_unique<Impl>()) {
@@ -265,103 +429,10 @@ Commander::Commander(const RobotDescription& robot, Trajectory trajectory, Comma
 
   for (size_t k = 0; k < trajectory_.segments.size(); ++k) {
     const TrajectorySegment& seg = trajectory_.segments[k];
-    const std::string place = SegmentPlace(k, seg);
-    const bool by_angle = seg.angle > 0.0;
-    if (!(seg.distance >= 0.0 && seg.angle >= 0.0 && seg.pause_s >= 0.0) ||
-        (!by_angle && seg.distance <= 0.0)) {
-      throw InputError(origin, place, "needs a positive distance or angle and a pause >= 0");
-    }
-    Motion m;
-    m.length = by_angle ? seg.angle : seg.distance;
-    // Direction of the motion (any scale) and the requested peak of its progress rate.
-    Twist2 dir;
-    double request = std::abs(seg.speed);
-    if (s.drive == DriveType::kDifferential) {
-      dir = {seg.speed, 0.0, seg.omega};
-      if (by_angle) request = std::abs(seg.omega);
-    } else {
-      if (seg.steer.size() != n) {
-        throw InputError(origin, place, "needs one steering angle per wheel role");
-      }
-      for (double a : seg.steer) {
-        if (!(std::abs(a) <= lim.max_steer)) {
-          throw InputError(origin, place,
-                           Fmt("steering angle %.3f rad beyond max_steer %.3f rad", a,
-                               lim.max_steer));
-        }
-      }
-      if (seg.speed == 0.0) throw InputError(origin, place, "needs a non-zero speed");
-      Row r[2];
-      if (s.drive == DriveType::kTricycle) {
-        r[0] = {0.0, 1.0, 0.0};  // the rear axle does not slide sideways
-        r[1] = RollingConstraint(s.contacts[0].first, s.contacts[0].second, seg.steer[0]);
-      } else {
-        r[0] = RollingConstraint(s.contacts[0].first, s.contacts[0].second, seg.steer[0]);
-        r[1] = RollingConstraint(s.contacts[1].first, s.contacts[1].second, seg.steer[1]);
-      }
-      // The twist both constraints allow: their cross product.
-      dir = {r[0].b * r[1].c - r[0].c * r[1].b, r[0].c * r[1].a - r[0].a * r[1].c,
-             r[0].a * r[1].b - r[0].b * r[1].a};
-      const double norm = std::hypot(dir.vx, dir.vy, dir.omega);
-      const double scale = std::hypot(r[0].a, r[0].b, r[0].c) * std::hypot(r[1].a, r[1].b, r[1].c);
-      if (norm < 1e-3 * scale) {
-        throw InputError(origin, place,
-                         "the steering angles do not determine the motion (degenerate geometry)");
-      }
-      // Orient it so that the first steered wheel rolls forwards, then apply the sign of travel.
-      const double wx = s.contacts[0].first, wy = s.contacts[0].second;
-      double along = (dir.vx - dir.omega * wy) * std::cos(seg.steer[0]) +
-                     (dir.vy + dir.omega * wx) * std::sin(seg.steer[0]);
-      if (std::abs(along) < 1e-9 * norm && s.drive == DriveType::kDualSteer) {
-        const double x2 = s.contacts[1].first, y2 = s.contacts[1].second;
-        along = (dir.vx - dir.omega * y2) * std::cos(seg.steer[1]) +
-                (dir.vy + dir.omega * x2) * std::sin(seg.steer[1]);
-      }
-      const double sign = (along < 0 ? -1.0 : 1.0) * (seg.speed < 0 ? -1.0 : 1.0);
-      dir = {sign * dir.vx, sign * dir.vy, sign * dir.omega};
-    }
-    // Normalise to one unit of progress per second.
-    const double unit = by_angle ? std::abs(dir.omega)
-                                 : PointSpeed(dir, progress_point.first, progress_point.second);
-    if (!(unit > kTiny * std::max(1.0, std::hypot(dir.vx, dir.vy, dir.omega)))) {
-      throw InputError(origin, place,
-                       by_angle ? "an angle segment must turn" : "a distance segment must move");
-    }
-    m.xi = {dir.vx / unit, dir.vy / unit, dir.omega / unit};
-    if (s.drive != DriveType::kDifferential && by_angle) {
-      // The requested speed is of the progress point; express it as a turn rate.
-      request *= std::abs(m.xi.omega) /
-                 std::max(kTiny, PointSpeed(m.xi, progress_point.first, progress_point.second));
-    }
-    // The fastest point (reference point or a wheel) bounds speed and acceleration.
-    double fastest = PointSpeed(m.xi, 0.0, 0.0);
-    for (const auto& c : s.contacts) fastest = std::max(fastest, PointSpeed(m.xi, c.first, c.second));
-    double peak = request;
-    if (fastest > kTiny) peak = std::min(peak, lim.max_speed / fastest);
-    if (std::abs(m.xi.omega) > kTiny) peak = std::min(peak, lim.max_omega / std::abs(m.xi.omega));
-    m.peak = peak * (1.0 - kLimitMargin);
-    m.accel = lim.max_accel / std::max(fastest, kTiny) * (1.0 - kLimitMargin);
-    if (!(m.peak > 0.0)) throw InputError(origin, place, "has no speed");
-    if (s.drive != DriveType::kDifferential) {
-      m.steer = seg.steer;
-      const WheelSetpoint ws = model->Inverse(m.xi);
-      m.wheel_speed = ws.speed;
-      for (size_t i = 0; i < n; ++i) {
-        // Inverse() may point a wheel the other way round and reverse its drive instead.
-        const double diff = ws.steer[i] - s.offsets[i] - seg.steer[i];
-        if (std::cos(diff) < 0.0) m.wheel_speed[i] = -m.wheel_speed[i];
-        const double contact = PointSpeed(m.xi, s.contacts[i].first, s.contacts[i].second);
-        if (contact > 1e-6 && std::abs(std::sin(diff)) > 1e-6) {
-          throw std::logic_error(origin + ": " + place +
-                                 ": kinematic model disagrees with the steering geometry");
-        }
-      }
-    }
-    s.motions.push_back(m);
+    s.motions.push_back(s.SegmentMotion(seg, *model, lim, progress_point, origin, SegmentPlace(k, seg)));
   }
 
-  // The phase plan: start delay, then per segment steering ramp and settle (when the
-  // steering changes), drive, pause; finally the steering back to zero.
+  // The steering the wheels start from, then the phase plan.
   std::vector<double> steer(n, 0.0);
   if (s.steered() && !options_.initial_steer.empty()) {
     if (options_.initial_steer.size() != n) {
@@ -369,47 +440,7 @@ Commander::Commander(const RobotDescription& robot, Trajectory trajectory, Comma
     }
     for (size_t i = 0; i < n; ++i) steer[i] = options_.initial_steer[i];
   }
-  auto hold = [&](int segment, double duration) {
-    Phase p;
-    p.kind = PhaseKind::kHold;
-    p.segment = segment;
-    p.duration = duration;
-    p.steer_from = steer;
-    s.phases.push_back(p);
-  };
-  // Turns the wheels to `target` at the steering-rate limit, then lets them settle.
-  auto turn_to = [&](int segment, const std::vector<double>& target, double settle_s) {
-    if (s.SteerDuration(steer, target) <= 0.0) return;
-    Phase p;
-    p.kind = PhaseKind::kSteer;
-    p.segment = segment;
-    p.steer_from = steer;
-    p.steer_to = target;
-    p.duration = s.SteerDuration(steer, target);
-    s.phases.push_back(p);
-    steer = target;
-    if (settle_s > 0.0) hold(segment, settle_s);
-  };
-  hold(0, std::max(0.0, options_.start_delay_s));
-  for (size_t k = 0; k < s.motions.size(); ++k) {
-    const Motion& m = s.motions[k];
-    const int seg = static_cast<int>(k);
-    if (s.steered()) turn_to(seg, m.steer, s.settle_s);
-    Phase p;
-    p.kind = PhaseKind::kDrive;
-    p.segment = seg;
-    p.motion = seg;
-    p.steer_from = steer;
-    p.profile = Profile::Make(m.length, m.peak, m.accel);
-    p.duration = p.profile.duration();
-    s.phases.push_back(p);
-    hold(seg, trajectory_.segments[k].pause_s);
-  }
-  if (s.steered()) {
-    const int last = std::max(0, static_cast<int>(s.motions.size()) - 1);
-    turn_to(last, std::vector<double>(n, 0.0), 0.0 /* no settle before the stop */);
-  }
-  for (const Phase& p : s.phases) s.nominal_duration += p.duration;
+  s.PlanPhases(steer, options_.start_delay_s, trajectory_.segments);
 }
 
 Commander::~Commander() = default;

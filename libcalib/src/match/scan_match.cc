@@ -46,6 +46,107 @@ double TruncatedVarianceFactor(double z) {
   return std::max(1.0 - 2.0 * z * pdf / inside, 1e-3);
 }
 
+// A current point paired with a reference line (MatchPointsToLines).
+struct Pair {
+  int index;     // current point
+  int line;      // reference line
+  double error;  // n · (T q − c)
+};
+
+// Pairs each current point, moved by x = (x, y, theta) (c, s: cos and sin theta), with the
+// nearest reference line within `max_distance`; abs_errors gets each pair's |error|.
+void PairPointsWithLines(const PreparedScan& reference, const ScanPoints& current,
+                         const Eigen::Vector3d& x, double c, double s, double max_distance,
+                         std::vector<Pair>* pairs, std::vector<double>* abs_errors) {
+  pairs->clear();
+  abs_errors->clear();
+  const int n = static_cast<int>(current.points.size());
+  for (int i = 0; i < n; ++i) {
+    const Eigen::Vector2d& q = current.points[i];
+    const Eigen::Vector2d p(x[0] + c * q.x() - s * q.y(), x[1] + s * q.x() + c * q.y());
+    const int j = reference.Nearest(p, max_distance);
+    if (j < 0) continue;
+    const PreparedScan::Line& line = reference.line(j);
+    const double e = line.normal.dot(p - line.centroid);
+    pairs->push_back({i, j, e});
+    abs_errors->push_back(std::abs(e));
+  }
+}
+
+// Robust scale of the errors (MAD), then keep the pairs with |e| within
+// residual_gate_sigmas of it and up to the (1 - trim) quantile: the threshold on |e|,
+// with *keep the most pairs kept and *truncation what the kept errors' mean square
+// underestimates the variance by. Reorders abs_errors.
+double GateThreshold(std::vector<double>* abs_errors, const ScanMatchOptions& options, int* keep,
+                     double* truncation) {
+  std::vector<double>& errors = *abs_errors;
+  const std::size_t mid = errors.size() / 2;
+  std::nth_element(errors.begin(), errors.begin() + mid, errors.end());
+  const double robust_sigma = std::max(1.4826 * errors[mid], 1e-9);
+  double threshold = options.residual_gate_sigmas > 0
+                         ? options.residual_gate_sigmas * robust_sigma
+                         : std::numeric_limits<double>::infinity();
+  *keep = static_cast<int>(std::ceil((1.0 - options.trim_fraction) * errors.size()));
+  if (*keep < static_cast<int>(errors.size()) && *keep > 0) {
+    std::nth_element(errors.begin(), errors.begin() + (*keep - 1), errors.end());
+    threshold = std::min(threshold, errors[*keep - 1]);
+  }
+  *truncation = TruncatedVarianceFactor(threshold / robust_sigma);
+  return threshold;
+}
+
+// Gauss-Newton sums over the kept pairs (the first `keep` with |error| <= threshold).
+struct PairSums {
+  Eigen::Matrix3d hessian = Eigen::Matrix3d::Zero();
+  Eigen::Vector3d gradient = Eigen::Vector3d::Zero();
+  double sum_e2 = 0.0;        // squared errors
+  double sum_r2 = 0.0;        // squared ranges of the current points
+  double sum_support = 0.0;   // points behind the lines
+  int kept = 0;
+};
+
+// The sums at the pose whose rotation has cosine c and sine s.
+PairSums SumPairs(const PreparedScan& reference, const ScanPoints& current,
+                  const std::vector<Pair>& pairs, double threshold, int keep, double c, double s) {
+  PairSums sums;
+  for (const Pair& pair : pairs) {
+    if (std::abs(pair.error) > threshold || sums.kept >= keep) continue;
+    const PreparedScan::Line& line = reference.line(pair.line);
+    const Eigen::Vector2d& q = current.points[pair.index];
+    // d(T q)/d theta = R(theta + pi/2) q.
+    const Eigen::Vector2d dp(-s * q.x() - c * q.y(), c * q.x() - s * q.y());
+    const Eigen::Vector3d jacobian(line.normal.x(), line.normal.y(), line.normal.dot(dp));
+    sums.hessian.noalias() += jacobian * jacobian.transpose();
+    sums.gradient += jacobian * pair.error;
+    sums.sum_e2 += pair.error * pair.error;
+    sums.sum_r2 += q.squaredNorm();
+    sums.sum_support += line.support;
+    ++sums.kept;
+  }
+  return sums;
+}
+
+// The match's covariance from the scaled normal equations' eigen-decomposition (the
+// `weak` smallest directions uninformative) and its weakest direction, unscaled.
+void SetUncertainty(const Eigen::Vector3d& eigenvalues, const Eigen::Matrix3d& eigenvectors, int weak,
+                    double sigma2, double scale, const ScanMatchOptions& options, SensorMotion* result) {
+  // Covariance in scaled coordinates, the weak directions uninformative.
+  Eigen::Matrix3d scaled_cov = Eigen::Matrix3d::Zero();
+  for (int k = 0; k < 3; ++k) {
+    const double variance = k < weak ? options.degenerate_sigma_m * options.degenerate_sigma_m
+                                     : 2.0 * sigma2 / eigenvalues[k];
+    scaled_cov += variance * eigenvectors.col(k) * eigenvectors.col(k).transpose();
+  }
+  const Eigen::Vector3d unscale(1.0, 1.0, 1.0 / scale);
+  result->covariance = unscale.asDiagonal() * scaled_cov * unscale.asDiagonal();
+  Eigen::Vector3d direction = unscale.asDiagonal() * eigenvectors.col(0);
+  direction.normalize();
+  Eigen::Index largest = 0;
+  direction.cwiseAbs().maxCoeff(&largest);
+  if (direction[largest] < 0) direction = -direction;
+  result->weak_direction = direction;
+}
+
 }  // namespace
 
 ScanPoints ScanToPoints(const LaserScan& scan) {
@@ -278,18 +379,12 @@ SensorMotion MatchPointsToLines(const PreparedScan& reference, const ScanPoints&
   const int n = static_cast<int>(current.points.size());
   if (n == 0 || reference.num_lines() == 0) return result;
 
-  struct Pair {
-    int index;     // current point
-    int line;      // reference line
-    double error;  // n · (T q − c)
-  };
   std::vector<Pair> pairs;
   pairs.reserve(n);
   std::vector<double> abs_errors;
   abs_errors.reserve(n);
 
   Eigen::Vector3d x(prior.x, prior.y, prior.theta);
-  Eigen::Matrix3d hessian = Eigen::Matrix3d::Zero();
   Eigen::Matrix3d eigenvectors = Eigen::Matrix3d::Identity();
   Eigen::Vector3d eigenvalues = Eigen::Vector3d::Zero();
   double sum_e2 = 0.0, mean_support = 0.0, scale = 1.0, truncation = 1.0;
@@ -301,63 +396,25 @@ SensorMotion MatchPointsToLines(const PreparedScan& reference, const ScanPoints&
   for (int iteration = 0; iteration < options.max_iterations; ++iteration) {
     rep.iterations = iteration + 1;
     const double c = std::cos(x[2]), s = std::sin(x[2]);
-    pairs.clear();
-    abs_errors.clear();
-    for (int i = 0; i < n; ++i) {
-      const Eigen::Vector2d& q = current.points[i];
-      const Eigen::Vector2d p(x[0] + c * q.x() - s * q.y(), x[1] + s * q.x() + c * q.y());
-      const int j = reference.Nearest(p, options.max_correspondence_distance_m);
-      if (j < 0) continue;
-      const PreparedScan::Line& line = reference.line(j);
-      const double e = line.normal.dot(p - line.centroid);
-      pairs.push_back({i, j, e});
-      abs_errors.push_back(std::abs(e));
-    }
+    PairPointsWithLines(reference, current, x, c, s, options.max_correspondence_distance_m, &pairs,
+                        &abs_errors);
     if (static_cast<int>(pairs.size()) < options.min_correspondences) {
       rep.correspondences = static_cast<int>(pairs.size());
       return result;
     }
-    // Robust scale of the errors (MAD), then keep the pairs with |e| within
-    // residual_gate_sigmas of it and up to the (1 - trim) quantile.
-    const std::size_t mid = abs_errors.size() / 2;
-    std::nth_element(abs_errors.begin(), abs_errors.begin() + mid, abs_errors.end());
-    const double robust_sigma = std::max(1.4826 * abs_errors[mid], 1e-9);
-    double threshold = options.residual_gate_sigmas > 0
-                           ? options.residual_gate_sigmas * robust_sigma
-                           : std::numeric_limits<double>::infinity();
-    const int keep = static_cast<int>(std::ceil((1.0 - options.trim_fraction) * pairs.size()));
-    if (keep < static_cast<int>(pairs.size()) && keep > 0) {
-      std::nth_element(abs_errors.begin(), abs_errors.begin() + (keep - 1), abs_errors.end());
-      threshold = std::min(threshold, abs_errors[keep - 1]);
-    }
-    truncation = TruncatedVarianceFactor(threshold / robust_sigma);
-    hessian.setZero();
-    Eigen::Vector3d gradient = Eigen::Vector3d::Zero();
-    double sum_r2 = 0.0;
-    sum_e2 = 0.0;
-    mean_support = 0.0;
-    kept = 0;
-    for (const Pair& pair : pairs) {
-      if (std::abs(pair.error) > threshold || kept >= keep) continue;
-      const PreparedScan::Line& line = reference.line(pair.line);
-      const Eigen::Vector2d& q = current.points[pair.index];
-      // d(T q)/d theta = R(theta + pi/2) q.
-      const Eigen::Vector2d dp(-s * q.x() - c * q.y(), c * q.x() - s * q.y());
-      const Eigen::Vector3d jacobian(line.normal.x(), line.normal.y(), line.normal.dot(dp));
-      hessian.noalias() += jacobian * jacobian.transpose();
-      gradient += jacobian * pair.error;
-      sum_e2 += pair.error * pair.error;
-      sum_r2 += q.squaredNorm();
-      mean_support += line.support;
-      ++kept;
-    }
+    int keep = 0;
+    const double threshold = GateThreshold(&abs_errors, options, &keep, &truncation);
+    const PairSums sums = SumPairs(reference, current, pairs, threshold, keep, c, s);
+    sum_e2 = sums.sum_e2;
+    mean_support = sums.sum_support;
+    kept = sums.kept;
     rep.correspondences = kept;
     if (kept < options.min_correspondences) return result;
     mean_support /= kept;
     // Scale theta by the RMS range so that translation and rotation compare.
-    scale = std::sqrt(sum_r2 / kept);
+    scale = std::sqrt(sums.sum_r2 / kept);
     const Eigen::Vector3d unscale(1.0, 1.0, 1.0 / scale);
-    const Eigen::Matrix3d scaled = unscale.asDiagonal() * hessian * unscale.asDiagonal();
+    const Eigen::Matrix3d scaled = unscale.asDiagonal() * sums.hessian * unscale.asDiagonal();
     Eigen::SelfAdjointEigenSolver<Eigen::Matrix3d> eigen;
     eigen.computeDirect(scaled);
     eigenvalues = eigen.eigenvalues();  // ascending
@@ -366,7 +423,7 @@ SensorMotion MatchPointsToLines(const PreparedScan& reference, const ScanPoints&
     weak = 0;
     while (weak < 2 && eigenvalues[weak] < options.degeneracy_ratio * eigenvalues[2]) ++weak;
     // Gauss-Newton step in scaled coordinates, without the weak directions.
-    const Eigen::Vector3d scaled_gradient = unscale.asDiagonal() * gradient;
+    const Eigen::Vector3d scaled_gradient = unscale.asDiagonal() * sums.gradient;
     Eigen::Vector3d step = Eigen::Vector3d::Zero();
     for (int k = weak; k < 3; ++k)
       step -= eigenvectors.col(k) * (eigenvectors.col(k).dot(scaled_gradient) / eigenvalues[k]);
@@ -401,21 +458,7 @@ SensorMotion MatchPointsToLines(const PreparedScan& reference, const ScanPoints&
   rep.sigma = std::sqrt(sigma2);
   rep.characteristic_range = scale;
   rep.eigenvalue_ratio = eigenvalues[2] > 0.0 ? eigenvalues[0] / eigenvalues[2] : 0.0;
-  // Covariance in scaled coordinates, the weak directions uninformative.
-  Eigen::Matrix3d scaled_cov = Eigen::Matrix3d::Zero();
-  for (int k = 0; k < 3; ++k) {
-    const double variance = k < weak ? options.degenerate_sigma_m * options.degenerate_sigma_m
-                                     : 2.0 * sigma2 / eigenvalues[k];
-    scaled_cov += variance * eigenvectors.col(k) * eigenvectors.col(k).transpose();
-  }
-  const Eigen::Vector3d unscale(1.0, 1.0, 1.0 / scale);
-  result.covariance = unscale.asDiagonal() * scaled_cov * unscale.asDiagonal();
-  Eigen::Vector3d direction = unscale.asDiagonal() * eigenvectors.col(0);
-  direction.normalize();
-  Eigen::Index largest = 0;
-  direction.cwiseAbs().maxCoeff(&largest);
-  if (direction[largest] < 0) direction = -direction;
-  result.weak_direction = direction;
+  SetUncertainty(eigenvalues, eigenvectors, weak, sigma2, scale, options, &result);
   result.degenerate = weak > 0;
   result.inlier_fraction = double(kept) / n;
   result.rms = std::sqrt(sum_e2 / kept);

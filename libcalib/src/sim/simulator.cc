@@ -222,11 +222,152 @@ void Simulator::StepPhysics(double dt) {
   s.velocity_world = Eigen::Vector2d(c * twist.vx - sn * twist.vy, sn * twist.vx + c * twist.vy);
 }
 
+// WHEELS: encoder ticks (with tick noise), wheel speeds and steering readings.
+void Simulator::PublishWheels(MessageSink* sink) {
+  State& s = *state_;
+  const SimConfig& cfg = config_;
+  const auto& roles = WheelRoles(cfg.robot.drive);
+  agvcal::wheel_state_t msg{};
+  msg.utime = utime_;
+  msg.num_wheels = static_cast<int32_t>(roles.size());
+  const double tick = 2.0 * M_PI / cfg.wheels.ticks_per_rev;
+  for (size_t i = 0; i < roles.size(); ++i) {
+    const WheelState& w = s.wheels[i];
+    msg.name.push_back(cfg.robot.wheel_name(roles[i]));
+    const double noisy = w.phi / tick + cfg.wheels.tick_noise * s.normal(s.rng_wheels);
+    msg.position.push_back(std::floor(noisy) * tick);
+    msg.velocity.push_back(w.omega + cfg.wheels.velocity_noise * s.normal(s.rng_wheels));
+    double steer = 0.0;
+    if (s.steered[i]) {
+      const double res = cfg.wheels.steer_resolution_rad;
+      steer = w.steer_reading + cfg.wheels.steer_noise_rad * s.normal(s.rng_wheels);
+      if (res > 0) steer = std::round(steer / res) * res;
+    }
+    msg.steer.push_back(steer);
+  }
+  sink->Publish(kWheelsChannel, utime_, Encode(msg));
+  last_wheels_utime_ = utime_;
+  s.next_wheels += s.wheels_period;
+}
+
+// IMU: the gyro's yaw rate (scale, bias, noise) and the accelerometer (from the velocity
+// history) in the IMU's frame.
+void Simulator::PublishImu(MessageSink* sink) {
+  State& s = *state_;
+  const SimConfig& cfg = config_;
+  agvcal::imu_t msg{};
+  msg.utime = utime_ + std::llround(cfg.imu.time_offset_s * 1e6);
+  const double yaw = pose_.theta + cfg.true_imu.yaw;
+  const auto& oldest = s.velocity_history.front();
+  Eigen::Vector2d accel_world = Eigen::Vector2d::Zero();
+  if (utime_ > oldest.first)
+    accel_world = (s.velocity_world - oldest.second) / ((utime_ - oldest.first) * 1e-6);
+  const double c = std::cos(yaw), sn = std::sin(yaw);
+  const double gyro_sigma = cfg.imu.gyro_noise_density * std::sqrt(cfg.imu.rate_hz);
+  const double accel_sigma = cfg.imu.accel_noise_density * std::sqrt(cfg.imu.rate_hz);
+  msg.angular_velocity[0] = gyro_sigma * s.normal(s.rng_imu);
+  msg.angular_velocity[1] = gyro_sigma * s.normal(s.rng_imu);
+  msg.angular_velocity[2] = cfg.imu.gyro_scale * s.omega_body + cfg.imu.gyro_bias + gyro_sigma * s.normal(s.rng_imu);
+  msg.linear_acceleration[0] = c * accel_world.x() + sn * accel_world.y() + cfg.imu.accel_bias +
+                               accel_sigma * s.normal(s.rng_imu);
+  msg.linear_acceleration[1] = -sn * accel_world.x() + c * accel_world.y() +
+                               cfg.imu.accel_bias + accel_sigma * s.normal(s.rng_imu);
+  msg.linear_acceleration[2] = kGravity + accel_sigma * s.normal(s.rng_imu);
+  sink->Publish(kImuChannel, utime_, Encode(msg));
+  s.next_imu += s.imu_period;
+}
+
+// SCAN: the 2D lidar's scan that ends now, each beam cast from the pose it was taken at.
+void Simulator::PublishScan(MessageSink* sink) {
+  State& s = *state_;
+  const SimConfig& cfg = config_;
+  // The scan started one period ago; beam j was taken at start + j * dt_beam.
+  const Lidar2dSensorConfig& L = cfg.lidar2d;
+  const int64_t start = s.next_scan_end - s.scan_period;
+  const double increment = L.fov_rad / L.beams;
+  // One revolution per scan: the beams of the field of view take their share of it.
+  double dt_beam = s.scan_period * 1e-6 * increment / (2.0 * M_PI);
+  // scan_distortion (spec/effects.md): beam j at utime + j * scan_period_s / nranges.
+  if (cfg.effects.scan_distortion_period_s)
+    dt_beam = *cfg.effects.scan_distortion_period_s / L.beams;
+  agvcal::laser_scan_t msg{};
+  msg.utime = start + std::llround(cfg.effects.time_offset_s.value_or(0.0) * 1e6);
+  msg.angle_min = static_cast<float>(-L.fov_rad / 2.0);
+  msg.angle_increment = static_cast<float>(increment);
+  msg.time_increment = cfg.effects.scan_distortion_period_s ? 0.0f : static_cast<float>(dt_beam);
+  msg.scan_time = static_cast<float>(s.scan_period * 1e-6);
+  msg.range_min = static_cast<float>(L.range_min);
+  msg.range_max = static_cast<float>(L.range_max);
+  msg.nranges = L.beams;
+  msg.ranges.resize(L.beams);
+  msg.nintensities = 0;
+  const Pose2 mount{cfg.true_lidar2d.x, cfg.true_lidar2d.y, cfg.true_lidar2d.yaw};
+  for (int j = 0; j < L.beams; ++j) {
+    const int64_t t = start + std::llround(j * dt_beam * 1e6);
+    const Pose2 sensor = Compose(s.PoseAt(t), mount);
+    // Angles as the receiver will compute them, from the float fields.
+    const double beam_angle = double(msg.angle_min) + j * double(msg.angle_increment);
+    double range = s.world.CastRay2d({sensor.x, sensor.y}, sensor.theta + beam_angle,
+                                     L.range_max);
+    const double noise = L.range_noise * s.normal(s.rng_scan);
+    const bool dropped = L.dropout > 0 && s.uniform(s.rng_scan) < L.dropout;
+    if (range == kNoHit || range < L.range_min)
+      msg.ranges[j] = std::numeric_limits<float>::infinity();
+    else if (dropped)
+      msg.ranges[j] = std::numeric_limits<float>::quiet_NaN();
+    else
+      msg.ranges[j] = static_cast<float>(range + noise);
+  }
+  sink->Publish(kScanChannel, utime_, Encode(msg));
+  s.next_scan_end += s.scan_period;
+}
+
+// CLOUD: the 3D lidar's rings, cast from the robot's pose now and the turret at `turret_angle`.
+void Simulator::PublishCloud(double turret_angle, MessageSink* sink) {
+  State& s = *state_;
+  const SimConfig& cfg = config_;
+  const Lidar3dSensorConfig& L = cfg.lidar3d;
+  const Mount3d& m = cfg.true_lidar3d;
+  const Eigen::Matrix3d mount_rotation = Lidar3dRotation(m, L, turret_angle);
+  const Eigen::Matrix3d robot_rotation =
+      Eigen::AngleAxisd(pose_.theta, Eigen::Vector3d::UnitZ()).toRotationMatrix();
+  const Eigen::Vector3d origin_robot(m.x, m.y, m.z);
+  const Eigen::Vector3d origin_world =
+      Eigen::Vector3d(pose_.x, pose_.y, 0.0) + robot_rotation * origin_robot;
+  agvcal::point_cloud_t msg{};
+  msg.utime = utime_;
+  for (int ring = 0; ring < L.rings; ++ring) {
+    const double elevation =
+        L.rings == 1 ? L.elevation_min_rad
+                     : L.elevation_min_rad +
+                           ring * (L.elevation_max_rad - L.elevation_min_rad) / (L.rings - 1);
+    for (int k = 0; k < L.points_per_ring; ++k) {
+      const double azimuth = -M_PI + 2.0 * M_PI * k / L.points_per_ring;
+      const Eigen::Vector3d dir_sensor(std::cos(elevation) * std::cos(azimuth),
+                                       std::cos(elevation) * std::sin(azimuth),
+                                       std::sin(elevation));
+      const Eigen::Vector3d dir_robot = mount_rotation * dir_sensor;
+      double range = std::min(
+          s.world.CastRay3d(origin_world, robot_rotation * dir_robot, L.range_max),
+          CastRayBox(L.body, origin_robot, dir_robot, L.range_max));
+      const double noise = L.range_noise * s.normal(s.rng_cloud);
+      if (range == kNoHit) continue;
+      range += noise;
+      const Eigen::Vector3f p = (dir_sensor * range).cast<float>();
+      msg.xyz.push_back({p.x(), p.y(), p.z()});
+      msg.ring.push_back(static_cast<int16_t>(ring));
+    }
+  }
+  msg.npoints = msg.nring = static_cast<int32_t>(msg.xyz.size());
+  msg.nintensity = 0;
+  sink->Publish(kCloudChannel, utime_, Encode(msg));
+  s.next_cloud += s.cloud_period;
+}
+
 void Simulator::AdvanceTo(int64_t until, MessageSink* sink) {
   State& s = *state_;
   const SimConfig& cfg = config_;
   const int64_t physics_step = PeriodUs(cfg.physics_rate_hz);
-  const auto& roles = WheelRoles(cfg.robot.drive);
 
   while (utime_ < until) {
     StepPhysics(physics_step * 1e-6);
@@ -240,94 +381,9 @@ void Simulator::AdvanceTo(int64_t until, MessageSink* sink) {
       s.velocity_history.pop_front();
 
     // Sensors due at or before now, in a fixed order (ties: wheels first).
-    if (s.wheels_period && s.next_wheels <= utime_) {
-      agvcal::wheel_state_t msg{};
-      msg.utime = utime_;
-      msg.num_wheels = static_cast<int32_t>(roles.size());
-      const double tick = 2.0 * M_PI / cfg.wheels.ticks_per_rev;
-      for (size_t i = 0; i < roles.size(); ++i) {
-        const WheelState& w = s.wheels[i];
-        msg.name.push_back(cfg.robot.wheel_name(roles[i]));
-        const double noisy = w.phi / tick + cfg.wheels.tick_noise * s.normal(s.rng_wheels);
-        msg.position.push_back(std::floor(noisy) * tick);
-        msg.velocity.push_back(w.omega + cfg.wheels.velocity_noise * s.normal(s.rng_wheels));
-        double steer = 0.0;
-        if (s.steered[i]) {
-          const double res = cfg.wheels.steer_resolution_rad;
-          steer = w.steer_reading + cfg.wheels.steer_noise_rad * s.normal(s.rng_wheels);
-          if (res > 0) steer = std::round(steer / res) * res;
-        }
-        msg.steer.push_back(steer);
-      }
-      sink->Publish(kWheelsChannel, utime_, Encode(msg));
-      last_wheels_utime_ = utime_;
-      s.next_wheels += s.wheels_period;
-    }
-
-    if (s.imu_period && s.next_imu <= utime_) {
-      agvcal::imu_t msg{};
-      msg.utime = utime_ + std::llround(cfg.imu.time_offset_s * 1e6);
-      const double yaw = pose_.theta + cfg.true_imu.yaw;
-      const auto& oldest = s.velocity_history.front();
-      Eigen::Vector2d accel_world = Eigen::Vector2d::Zero();
-      if (utime_ > oldest.first)
-        accel_world = (s.velocity_world - oldest.second) / ((utime_ - oldest.first) * 1e-6);
-      const double c = std::cos(yaw), sn = std::sin(yaw);
-      const double gyro_sigma = cfg.imu.gyro_noise_density * std::sqrt(cfg.imu.rate_hz);
-      const double accel_sigma = cfg.imu.accel_noise_density * std::sqrt(cfg.imu.rate_hz);
-      msg.angular_velocity[0] = gyro_sigma * s.normal(s.rng_imu);
-      msg.angular_velocity[1] = gyro_sigma * s.normal(s.rng_imu);
-      msg.angular_velocity[2] = cfg.imu.gyro_scale * s.omega_body + cfg.imu.gyro_bias + gyro_sigma * s.normal(s.rng_imu);
-      msg.linear_acceleration[0] = c * accel_world.x() + sn * accel_world.y() + cfg.imu.accel_bias +
-                                   accel_sigma * s.normal(s.rng_imu);
-      msg.linear_acceleration[1] = -sn * accel_world.x() + c * accel_world.y() +
-                                   cfg.imu.accel_bias + accel_sigma * s.normal(s.rng_imu);
-      msg.linear_acceleration[2] = kGravity + accel_sigma * s.normal(s.rng_imu);
-      sink->Publish(kImuChannel, utime_, Encode(msg));
-      s.next_imu += s.imu_period;
-    }
-
-    if (s.scan_period && s.next_scan_end <= utime_) {
-      // The scan started one period ago; beam j was taken at start + j * dt_beam.
-      const Lidar2dSensorConfig& L = cfg.lidar2d;
-      const int64_t start = s.next_scan_end - s.scan_period;
-      const double increment = L.fov_rad / L.beams;
-      // One revolution per scan: the beams of the field of view take their share of it.
-      double dt_beam = s.scan_period * 1e-6 * increment / (2.0 * M_PI);
-      // scan_distortion (spec/effects.md): beam j at utime + j * scan_period_s / nranges.
-      if (cfg.effects.scan_distortion_period_s)
-        dt_beam = *cfg.effects.scan_distortion_period_s / L.beams;
-      agvcal::laser_scan_t msg{};
-      msg.utime = start + std::llround(cfg.effects.time_offset_s.value_or(0.0) * 1e6);
-      msg.angle_min = static_cast<float>(-L.fov_rad / 2.0);
-      msg.angle_increment = static_cast<float>(increment);
-      msg.time_increment = cfg.effects.scan_distortion_period_s ? 0.0f : static_cast<float>(dt_beam);
-      msg.scan_time = static_cast<float>(s.scan_period * 1e-6);
-      msg.range_min = static_cast<float>(L.range_min);
-      msg.range_max = static_cast<float>(L.range_max);
-      msg.nranges = L.beams;
-      msg.ranges.resize(L.beams);
-      msg.nintensities = 0;
-      const Pose2 mount{cfg.true_lidar2d.x, cfg.true_lidar2d.y, cfg.true_lidar2d.yaw};
-      for (int j = 0; j < L.beams; ++j) {
-        const int64_t t = start + std::llround(j * dt_beam * 1e6);
-        const Pose2 sensor = Compose(s.PoseAt(t), mount);
-        // Angles as the receiver will compute them, from the float fields.
-        const double beam_angle = double(msg.angle_min) + j * double(msg.angle_increment);
-        double range = s.world.CastRay2d({sensor.x, sensor.y}, sensor.theta + beam_angle,
-                                         L.range_max);
-        const double noise = L.range_noise * s.normal(s.rng_scan);
-        const bool dropped = L.dropout > 0 && s.uniform(s.rng_scan) < L.dropout;
-        if (range == kNoHit || range < L.range_min)
-          msg.ranges[j] = std::numeric_limits<float>::infinity();
-        else if (dropped)
-          msg.ranges[j] = std::numeric_limits<float>::quiet_NaN();
-        else
-          msg.ranges[j] = static_cast<float>(range + noise);
-      }
-      sink->Publish(kScanChannel, utime_, Encode(msg));
-      s.next_scan_end += s.scan_period;
-    }
+    if (s.wheels_period && s.next_wheels <= utime_) PublishWheels(sink);
+    if (s.imu_period && s.next_imu <= utime_) PublishImu(sink);
+    if (s.scan_period && s.next_scan_end <= utime_) PublishScan(sink);
 
     // Turret angle now (before the cloud, so a cloud at the same time finds it).
     const double turret_angle =
@@ -342,44 +398,7 @@ void Simulator::AdvanceTo(int64_t until, MessageSink* sink) {
       s.next_turret += s.turret_period;
     }
 
-    if (s.cloud_period && s.next_cloud <= utime_) {
-      const Lidar3dSensorConfig& L = cfg.lidar3d;
-      const Mount3d& m = cfg.true_lidar3d;
-      const Eigen::Matrix3d mount_rotation = Lidar3dRotation(m, L, turret_angle);
-      const Eigen::Matrix3d robot_rotation =
-          Eigen::AngleAxisd(pose_.theta, Eigen::Vector3d::UnitZ()).toRotationMatrix();
-      const Eigen::Vector3d origin_robot(m.x, m.y, m.z);
-      const Eigen::Vector3d origin_world =
-          Eigen::Vector3d(pose_.x, pose_.y, 0.0) + robot_rotation * origin_robot;
-      agvcal::point_cloud_t msg{};
-      msg.utime = utime_;
-      for (int ring = 0; ring < L.rings; ++ring) {
-        const double elevation =
-            L.rings == 1 ? L.elevation_min_rad
-                         : L.elevation_min_rad +
-                               ring * (L.elevation_max_rad - L.elevation_min_rad) / (L.rings - 1);
-        for (int k = 0; k < L.points_per_ring; ++k) {
-          const double azimuth = -M_PI + 2.0 * M_PI * k / L.points_per_ring;
-          const Eigen::Vector3d dir_sensor(std::cos(elevation) * std::cos(azimuth),
-                                           std::cos(elevation) * std::sin(azimuth),
-                                           std::sin(elevation));
-          const Eigen::Vector3d dir_robot = mount_rotation * dir_sensor;
-          double range = std::min(
-              s.world.CastRay3d(origin_world, robot_rotation * dir_robot, L.range_max),
-              CastRayBox(L.body, origin_robot, dir_robot, L.range_max));
-          const double noise = L.range_noise * s.normal(s.rng_cloud);
-          if (range == kNoHit) continue;
-          range += noise;
-          const Eigen::Vector3f p = (dir_sensor * range).cast<float>();
-          msg.xyz.push_back({p.x(), p.y(), p.z()});
-          msg.ring.push_back(static_cast<int16_t>(ring));
-        }
-      }
-      msg.npoints = msg.nring = static_cast<int32_t>(msg.xyz.size());
-      msg.nintensity = 0;
-      sink->Publish(kCloudChannel, utime_, Encode(msg));
-      s.next_cloud += s.cloud_period;
-    }
+    if (s.cloud_period && s.next_cloud <= utime_) PublishCloud(turret_angle, sink);
 
     if (s.pose_period && s.next_pose <= utime_) {
       const Pose2 tracked =

@@ -22,10 +22,9 @@ namespace calib {
 
 // An external pose stream joined into motions that span at least kMinPoseIntervalS.
 // Why: a pose source's stamps and the encoders' are never exactly simultaneous, so
-// each motion's encoder increment carries an error proportional to the speed (on
-// OptiOdom's 20 Hz rows about 20 % of a 50 ms interval's motion). An error in the
-// regressor biases a least-squares scale towards zero by 1/(1 + (error/motion)^2):
-// 4 % on the wheel radii at 50 ms, 0.25 % at 0.2 s (docs/calibration.md).
+// each motion's encoder increment carries an error proportional to the speed, which
+// biases a least-squares scale towards zero, the less the longer the motion
+// (figures: docs/calibration.md, "External poses are joined into intervals").
 inline constexpr double kMinPoseIntervalS = 0.2;
 
 class PoseIntervals {

@@ -13,8 +13,8 @@
 //   A range with no return is +inf (the device's max-range code) or kept below range_min
 //   (error codes such as 0), as spec/messages.md allows.
 // - Stamps: within one stream (the odometry lines, the laser lines, ...), a record whose
-//   stamp equals its predecessor's is dropped and counted (real logs repeat records: the
-//   Lego motor file repeats 61 of its 278); a stamp that goes backwards is refused.
+//   stamp equals its predecessor's is dropped and counted (real logs repeat records:
+//   docs/datasets.md); a stamp that goes backwards is refused.
 // - Bad input (unknown record, wrong field count, a field that is not a finite number, a
 //   stamp going backwards, a truncated or corrupt .gz, a robot file of the wrong drive
 //   type) throws InputError naming the file, "line N" and the problem. The whole input is

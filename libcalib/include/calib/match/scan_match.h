@@ -1,70 +1,16 @@
 #pragma once
-// 2D scan matching: the motion of the lidar between consecutive scans, the
-// measurement the calibration compares with the wheel odometry's prediction.
+// 2D scan matching: the motion of the lidar between two scans, the measurement
+// the calibration compares with the wheel odometry's prediction.
 //
-// 1. De-skew. A scanner takes its beams one after another while the robot
-//    moves (a 20 Hz scan at 0.6 m/s spans 3 cm). Each beam's point is carried
-//    into the sensor frame at the scan's first beam (`utime`) with the sensor
-//    motion predicted by the wheel odometry (nominal drive model and lidar
-//    mount of the robot file):
-//      S(t) = Inverse(mount) ∘ Odometry(t0, t) ∘ mount,
-//    integrated once per scan, one encoder interval after another, with a
-//    constant twist inside each interval, from the encoder readings as they
-//    are (interpolated at the scan's utime). A reading's quantisation error at
-//    utime (a 4096-tick encoder on a 0.45 m track: heading to 0.25 mrad)
-//    turns the whole de-skewed scan by that error, so the match carries the
-//    encoder error at both stamps: exactly the error of the odometry it is
-//    compared with, and the two cancel in the calibration's residual.
-//    Smoothing the readings (deskew_smoothing_s > 0: least-squares quadratic
-//    over the scan and that margin either side) gives a match closer to the
-//    true motion but breaks that cancellation, and where the acceleration
-//    changes within the window the quadratic misfits in step with the
-//    acceleration: the calibration then saw a time offset of -0.18 ms
-//    (dual steer, 2 sigma) and -2.7 ms (solve, differential) that was not there.
-// 2. PL-ICP (after Censi 2008, "An ICP variant using a point-to-line metric").
-//    Every point q of the current scan, moved by the guess T, is paired with
-//    its nearest reference point (exact search by polar angle, exploiting
-//    beam order: O(n log n) per scan instead of O(n^2)); the error is its
-//    distance to the reference's line there, e = n · (T q − c). One deviation
-//    from Censi: the line is not the one through the two nearest points but
-//    a line fitted to the consecutive beams around the nearest point (within
-//    the larger of line_fit_radius_m and line_fit_beams beam spacings). With
-//    1 cm range noise and beams 1 cm apart, a line through two points has a
-//    random orientation, which biases the match and hides a corridor's
-//    degeneracy; a fit over 5-25 beams does not. Points whose neighbourhood
-//    is not a line (corners, clutter) are not used as reference. Each
-//    iteration drops pairs farther apart than max_correspondence_distance_m,
-//    with |e| beyond residual_gate_sigmas robust (MAD) sigmas, and the
-//    trim_fraction with the largest |e| (outliers, moving objects), then
-//    takes one Gauss-Newton step on (x, y, theta) from the odometry's
-//    prediction of the motion. The iteration ends when a step is below
-//    convergence_m / convergence_rad or revisits an earlier state (a pair
-//    flipping in and out of the kept set).
-// 3. Symmetric (MatchScans): the match is done both ways, current points to
-//    reference lines and reference points to current lines, and averaged. A
-//    fitted line is not quite the surface at corners and on curved faces,
-//    which biases a one-way match by a few tenths of the noise (0.2-0.3 mm
-//    per pair in the bundled warehouse, which would add up over a
-//    calibration run); the two ways err in opposite directions.
-// 4. Covariance (the Hessian estimate with both scans' noise):
-//      cov = 2 σ² (JᵀJ)⁻¹,
-//    J the point-to-line Jacobians of the kept pairs, σ² the range noise along
-//    the normals estimated from the residuals (corrected for the truncation
-//    of the gates, and for the reference line's own noise). The factor 2: the
-//    reference scan is as noisy as the current one and enters the estimate as
-//    much (its lines are averages, but neighbouring pairs share them). The
-//    symmetric match reports the mean of its two ways' covariances. Not
-//    Censi's closed form. Checked against the simulator: E[eᵀ cov⁻¹ e] is
-//    2.5-3.6 (3 if exact).
-// 5. Degeneracy. JᵀJ is scaled so that translation and rotation compare
-//    (theta times L, the RMS range of the matched points) and its
-//    eigenvalues compared: smallest / largest < degeneracy_ratio marks the
-//    match degenerate (the warehouse gives 0.2-0.3, the corridor < 0.001);
-//    weak_direction is the least constrained (x, y, theta) direction (set for
-//    every match). Along a degenerate direction (every one below the ratio)
-//    the result keeps the odometry prior and the covariance is
-//    degenerate_sigma_m² (uninformative); across it the match is used. A
-//    corridor's weak direction is its axis.
+// In: scans (LaserScan), the encoder track, and the robot file's nominal drive
+// model and lidar2d mount. Out: SensorMotion, the later scan's sensor pose in
+// the earlier scan's sensor frame (x, y in m, theta in rad), its covariance,
+// and the least constrained direction, along which a degenerate match (a
+// corridor) keeps the odometry's prediction. Steps: de-skew each scan with the
+// odometry (DeskewScan), fit a line around each point (PreparedScan), then
+// point-to-line ICP one way (MatchPointsToLines) or both ways averaged
+// (MatchScans); ScanMatchPipeline runs them on the two streams.
+// Method, choices and measured figures: docs/calibration.md, "Scan matching".
 //
 // All functions are deterministic; no state outside their arguments.
 
@@ -112,7 +58,8 @@ struct ScanMatchOptions {
   bool symmetric = true;
   // Pipeline.
   bool deskew = true;                // false: every beam taken at the scan's utime
-  double deskew_smoothing_s = 0.0;   // > 0: readings smoothed over the scan and this margin (see 1.)
+  double deskew_smoothing_s = 0.0;   // > 0: readings smoothed over the scan and this margin
+                                     // (docs/calibration.md, Scan matching, 1.)
   // An encoder gap within a pair longer than both of these makes the match invalid:
   double max_wheel_gap_s = 0.25;     // s
   double wheel_gap_factor = 2.5;     // times the median of the last 15 encoder intervals
@@ -137,9 +84,9 @@ struct ScanPoints {
 ScanPoints ScanToPoints(const LaserScan& scan);
 
 // Each beam's point carried to the sensor frame at scan.utime with the sensor
-// motion the wheel odometry predicts (see the top of this file). `mount` is the
-// lidar's pose in the robot frame. smoothing_s > 0: the encoder readings are
-// smoothed over the scan and that margin either side (as far as the track
+// motion the wheel odometry predicts (docs/calibration.md, Scan matching, 1.).
+// `mount` is the lidar's pose in the robot frame. smoothing_s > 0: the encoder
+// readings are smoothed over the scan and that margin either side (as far as the track
 // reaches). Throws std::invalid_argument when the track does not cover the
 // scan's beams (scan.utime .. BeamTime(last)).
 ScanPoints DeskewScan(const LaserScan& scan, const WheelTrack& track, const DriveModel& model,

@@ -186,6 +186,11 @@ class Simulator {
  private:
   struct State;
   void StepPhysics(double dt);
+  // The sensor messages that fall due now (AdvanceTo), into `sink`.
+  void PublishWheels(MessageSink* sink);
+  void PublishImu(MessageSink* sink);
+  void PublishScan(MessageSink* sink);
+  void PublishCloud(double turret_angle, MessageSink* sink);
   SimConfig config_;
   std::unique_ptr<State> state_;
   int64_t utime_ = 0;
