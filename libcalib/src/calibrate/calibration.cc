@@ -10,120 +10,13 @@
 #include <unsupported/Eigen/SpecialFunctions>
 
 #include "calib/calibrate/closed_form.h"
+#include "calib/calibrate/interval_model.h"
 #include "calib/core/errors.h"
-#include "calib/core/kinematics_generic.h"
 
 namespace calib {
 namespace {
 
 constexpr int kMaxParams = 5;
-// Median of a chi-square variable with 3 degrees of freedom: robust scale of the residuals.
-constexpr double kChi2Median3 = 2.366;
-
-double Scalar(double x) { return x; }
-template <typename T, int N>
-double Scalar(const ceres::Jet<T, N>& x) {
-  return x.a;
-}
-
-// One interval's residual: measured sensor motion minus the one predicted from the encoders,
-// the drive parameters, the mount and the time offset, whitened by the measurement's
-// covariance. The encoder samples are those around the interval, times relative to its start.
-class IntervalCost {
- public:
-  IntervalCost(DriveType type, int num_wheels, std::vector<double> times,
-               std::vector<WheelSample> samples, double duration, const Pose2& measured,
-               const Eigen::Matrix3d& sqrt_information)
-      : type_(type), num_wheels_(num_wheels), times_(std::move(times)),
-        samples_(std::move(samples)), duration_(duration),
-        measured_(measured.x, measured.y, measured.theta), sqrt_information_(sqrt_information) {}
-
-  template <typename T>
-  bool operator()(const T* params, const T* mount, const T* offset, T* residual) const {
-    T e[3];
-    Error(params, mount, offset, e);
-    for (int i = 0; i < 3; ++i) {
-      residual[i] = T(0.0);
-      for (int j = 0; j < 3; ++j) residual[i] += sqrt_information_(i, j) * e[j];
-    }
-    return true;
-  }
-
-  // Measured minus predicted (x, y, theta), unwhitened.
-  template <typename T>
-  void Error(const T* params, const T* mount, const T* offset, T* e) const {
-    using P = generic::Pose<T>;
-    P q{T(0.0), T(0.0), T(0.0)};
-    // The scan stamped t was taken at wheel time t - offset (spec/effects.md time_offset).
-    ForEachStep(-offset[0], T(duration_) - offset[0], [&](const T* rotation, const T* steer) {
-      T dx = T(0.0), dy = T(0.0), dtheta = T(0.0);
-      generic::BodyDisplacement(type_, params, rotation, steer, &dx, &dy, &dtheta);
-      q = generic::Compose(q, generic::Exp(dx, dy, dtheta));
-    });
-    const P l{mount[0], mount[1], mount[2]};
-    const P z = generic::Compose(generic::Compose(generic::Inverse(l), q), l);
-    e[0] = T(measured_[0]) - z.x;
-    e[1] = T(measured_[1]) - z.y;
-    const double turns = std::round((measured_[2] - Scalar(z.theta)) / (2.0 * M_PI));
-    e[2] = T(measured_[2]) - z.theta - T(turns * 2.0 * M_PI);
-  }
-
- private:
-  // Calls step(rotation, mean_steer) for each encoder step over [start, end] (s, relative to
-  // the interval's start), the first and last cut by interpolation.
-  template <typename T, typename Step>
-  void ForEachStep(const T& start, const T& end, Step step) const {
-    std::size_t i = Segment(Scalar(start));
-    const std::size_t last = Segment(Scalar(end));
-    T prev_pos[2], prev_steer[2], pos[2], steer[2];
-    Interpolate(i, start, prev_pos, prev_steer);
-    for (;;) {
-      const bool final_step = i >= last;
-      if (final_step) {
-        Interpolate(last, end, pos, steer);
-      } else {
-        ++i;
-        for (int w = 0; w < num_wheels_; ++w) {
-          pos[w] = T(samples_[i].position[w]);
-          steer[w] = T(samples_[i].steer[w]);
-        }
-      }
-      T rotation[2], mean_steer[2];
-      for (int w = 0; w < num_wheels_; ++w) {
-        rotation[w] = pos[w] - prev_pos[w];
-        mean_steer[w] = 0.5 * (steer[w] + prev_steer[w]);
-        prev_pos[w] = pos[w];
-        prev_steer[w] = steer[w];
-      }
-      step(rotation, mean_steer);
-      if (final_step) break;
-    }
-  }
-
-  // Index i of the sample interval [times_[i], times_[i+1]] that holds t (clamped).
-  std::size_t Segment(double t) const {
-    const auto it = std::upper_bound(times_.begin(), times_.end(), t);
-    const std::size_t i = it == times_.begin() ? 0 : std::size_t(it - times_.begin()) - 1;
-    return std::min(i, times_.size() - 2);
-  }
-
-  template <typename T>
-  void Interpolate(std::size_t i, const T& t, T* pos, T* steer) const {
-    const T s = (t - times_[i]) / (times_[i + 1] - times_[i]);
-    for (int w = 0; w < num_wheels_; ++w) {
-      pos[w] = samples_[i].position[w] + s * (samples_[i + 1].position[w] - samples_[i].position[w]);
-      steer[w] = samples_[i].steer[w] + s * (samples_[i + 1].steer[w] - samples_[i].steer[w]);
-    }
-  }
-
-  DriveType type_;
-  int num_wheels_;
-  std::vector<double> times_;  // s, relative to the interval's start stamp
-  std::vector<WheelSample> samples_;
-  double duration_;
-  Eigen::Vector3d measured_;
-  Eigen::Matrix3d sqrt_information_;
-};
 
 // The parameter vector: drive parameters, mount, time offset.
 struct State {
@@ -134,23 +27,15 @@ struct State {
 
 struct Interval {
   const SensorMotion* motion;
-  std::unique_ptr<IntervalCost> cost;
+  std::unique_ptr<DriveIntervalCost> cost;
   std::unique_ptr<ceres::CostFunction> function;
   bool heldout = false;
   bool outlier = false;
 };
 
-Eigen::Matrix3d SqrtInformation(const Eigen::Matrix3d& covariance) {
-  Eigen::LLT<Eigen::Matrix3d> llt(covariance.inverse());
-  if (!covariance.allFinite() || llt.info() != Eigen::Success || !llt.matrixU().toDenseMatrix().allFinite()) {
-    return Eigen::Vector3d(1.0 / 0.01, 1.0 / 0.01, 1.0 / 0.005).asDiagonal();  // 1 cm, 0.3 deg
-  }
-  return llt.matrixU();
-}
-
 template <int N>
-ceres::CostFunction* MakeFunction(IntervalCost* cost) {
-  return new ceres::AutoDiffCostFunction<IntervalCost, 3, N, 3, 1>(cost, ceres::DO_NOT_TAKE_OWNERSHIP);
+ceres::CostFunction* MakeFunction(DriveIntervalCost* cost) {
+  return new ceres::AutoDiffCostFunction<DriveIntervalCost, 3, N, 3, 1>(cost, ceres::DO_NOT_TAKE_OWNERSHIP);
 }
 
 // Whitened residual chi-square of an interval at `state`.
@@ -165,12 +50,6 @@ Eigen::Vector3d Error(const Interval& interval, const State& state) {
   double e[3];
   interval.cost->Error(state.params, state.mount, state.offset, e);
   return {e[0], e[1], e[2]};
-}
-
-double Median(std::vector<double> v) {
-  if (v.empty()) return 0.0;
-  std::nth_element(v.begin(), v.begin() + v.size() / 2, v.end());
-  return v[v.size() / 2];
 }
 
 // Least squares over the intervals selected, with the residuals divided by `scale`.
@@ -442,27 +321,21 @@ std::vector<const SensorMotion*> UsableMotions(const WheelTrack& wheels,
   return usable;
 }
 
-// The cost of an interval: the encoder samples spanning it, times relative to its start.
-Interval MakeInterval(DriveType drive, int num_params, const WheelTrack& wheels,
-                      const SensorMotion& m, double margin_us, bool heldout) {
-  const auto& samples = wheels.samples();
+// The cost of an interval: the encoder samples spanning it (with `margin_us` either side).
+Interval MakeInterval(const EncoderTrack& track, int num_params, const SensorMotion& m,
+                      double margin_us, bool heldout) {
+  const std::vector<int64_t>& utime = track.utime;
   const double t0 = m.utime_start - margin_us, t1 = m.utime_end + margin_us;
-  auto first = std::upper_bound(samples.begin(), samples.end(), t0,
-                                [](double t, const WheelSample& s) { return t < s.utime; });
-  if (first != samples.begin()) --first;
-  auto last = std::lower_bound(samples.begin(), samples.end(), t1,
-                               [](const WheelSample& s, double t) { return s.utime < t; });
-  if (last == samples.end()) --last;
-  std::vector<WheelSample> span(first, last + 1);
-  std::vector<double> times;
-  for (const WheelSample& s : span) times.push_back((s.utime - m.utime_start) * 1e-6);
+  auto first = std::upper_bound(utime.begin(), utime.end(), t0, [](double t, int64_t u) { return t < u; });
+  if (first != utime.begin()) --first;
+  auto last = std::lower_bound(utime.begin(), utime.end(), t1, [](int64_t u, double t) { return u < t; });
+  if (last == utime.end()) --last;
   Interval it;
   it.motion = &m;
   it.heldout = heldout;
-  const int num_wheels = static_cast<int>(WheelRoles(drive).size());
-  it.cost = std::make_unique<IntervalCost>(drive, num_wheels, std::move(times), std::move(span),
-                                           (m.utime_end - m.utime_start) * 1e-6, m.delta,
-                                           SqrtInformation(m.covariance));
+  it.cost = std::make_unique<DriveIntervalCost>(
+      &track, first - utime.begin(), last - utime.begin(), m.utime_start, (m.utime_end - m.utime_start) * 1e-6,
+      Eigen::Vector3d(m.delta.x, m.delta.y, m.delta.theta), SqrtInformation(m.covariance));
   it.function.reset(num_params == 3 ? MakeFunction<3>(it.cost.get()) : MakeFunction<5>(it.cost.get()));
   return it;
 }
@@ -650,11 +523,12 @@ CalibrationResult Calibrate(const RobotDescription& robot, const WheelTrack& whe
                          " failed or outside the encoder data); at least 20 are needed");
   }
 
+  const EncoderTrack track = MakeEncoderTrack(robot.drive, wheels);
   std::vector<Interval> intervals;
   std::vector<MotionInterval> closed_form_input;
   for (std::size_t k = 0; k < usable.size(); ++k) {
     const SensorMotion& m = *usable[k];
-    intervals.push_back(MakeInterval(robot.drive, num_params, wheels, m, margin_us, k >= num_fit));
+    intervals.push_back(MakeInterval(track, num_params, m, margin_us, k >= num_fit));
     if (k < num_fit) closed_form_input.push_back({wheels.Increments(m.utime_start, m.utime_end), m.delta});
   }
 
@@ -693,7 +567,7 @@ CalibrationResult Calibrate(const RobotDescription& robot, const WheelTrack& whe
     std::vector<double> chi2;
     for (const Interval& it : intervals)
       if (!it.heldout && !it.outlier) chi2.push_back(Chi2(it, state));
-    return std::sqrt(std::max(Median(chi2) / kChi2Median3, 1e-12));
+    return std::sqrt(RobustScale2(std::move(chi2)));
   };
   Solve(intervals, &state, num_params, robust_scale(), true, options.estimate_time_offset,
         options.max_time_offset_s);
@@ -701,7 +575,7 @@ CalibrationResult Calibrate(const RobotDescription& robot, const WheelTrack& whe
   for (int round = 0; round < 2; ++round) {
     scale = robust_scale();
     for (Interval& it : intervals) {
-      if (!it.heldout) it.outlier = Chi2(it, state) / (scale * scale) > options.outlier_chi2;
+      if (!it.heldout) it.outlier = IsOutlier(Chi2(it, state), scale * scale, options.outlier_chi2);
     }
     Solve(intervals, &state, num_params, scale, false, options.estimate_time_offset,
           options.max_time_offset_s);
@@ -862,9 +736,10 @@ OdometryError EvaluateOdometry(const RobotDescription& robot, MotionSource sourc
                                double window_s) {
   ResidualSummary ignored;
   const int num_params = static_cast<int>(ParamNames(robot.drive).size());
+  const EncoderTrack track = MakeEncoderTrack(robot.drive, wheels);
   std::vector<Interval> intervals;
   for (const SensorMotion* m : UsableMotions(wheels, motions, 0.0, &ignored))
-    intervals.push_back(MakeInterval(robot.drive, num_params, wheels, *m, 0.0, true /* heldout */));
+    intervals.push_back(MakeInterval(track, num_params, *m, 0.0, true /* heldout */));
   return HeldoutOdometry(intervals, StateOf(robot, source), window_s, true /* keep_partial */);
 }
 
