@@ -3,15 +3,19 @@
 #include <algorithm>
 #include <cmath>
 #include <memory>
+#include <optional>
 #include <sstream>
+#include <string>
+#include <vector>
 
 #include <Eigen/Dense>
 #include <ceres/ceres.h>
-#include <unsupported/Eigen/SpecialFunctions>
 
 #include "calib/calibrate/closed_form.h"
+#include "calib/calibrate/heldout.h"
 #include "calib/calibrate/interval_model.h"
 #include "calib/core/errors.h"
+#include "calib/core/statistics.h"
 
 namespace calib {
 namespace {
@@ -113,130 +117,6 @@ Requirement RequirementFor(DriveType type, const std::string& name, double nomin
   return {0.05, "turn while driving: the sensor's position shows only when the robot rotates"};
 }
 
-// Chains one window's steps; Close() adds the window to `out`.
-class WindowChain {
- public:
-  explicit WindowChain(OdometryError* out) : out_(out) {}
-  bool open() const { return open_; }
-  double distance() const { return distance_; }
-  int64_t start() const { return start_; }
-  int64_t end() const { return end_; }
-  void Add(const OdometryStep& step) {
-    if (!open_) {
-      measured_ = predicted_ = Pose2{};
-      distance_ = 0.0;
-      start_ = step.utime_start;
-      open_ = true;
-    }
-    const Pose2& z = step.measured;
-    measured_ = Compose(measured_, z);
-    predicted_ = Compose(predicted_, Pose2{z.x - step.error[0], z.y - step.error[1], z.theta - step.error[2]});
-    distance_ += std::hypot(z.x, z.y);
-    end_ = step.utime_end;
-  }
-  void Close(bool keep) {
-    if (open_ && keep) {
-      const Pose2 d = Between(predicted_, measured_);
-      out_->per_window.push_back({start_, end_, distance_, std::hypot(d.x, d.y), d.theta});
-    }
-    open_ = false;
-  }
-
- private:
-  OdometryError* out_;
-  Pose2 measured_, predicted_;
-  int64_t start_ = 0, end_ = 0;
-  double distance_ = 0.0;
-  bool open_ = false;
-};
-
-void Summarize(OdometryError* out) {
-  double sum_t2 = 0, sum_h2 = 0, sum_t = 0;
-  out->windows = static_cast<int>(out->per_window.size());
-  out->distance_m = 0.0;
-  for (const WindowError& w : out->per_window) {
-    sum_t2 += w.translation_m * w.translation_m;
-    sum_t += w.translation_m;
-    sum_h2 += w.heading_rad * w.heading_rad;
-    out->distance_m += w.distance_m;
-  }
-  if (out->windows > 0) {
-    out->rms_translation_m = std::sqrt(sum_t2 / out->windows);
-    out->rms_heading_rad = std::sqrt(sum_h2 / out->windows);
-    out->error_per_metre = out->distance_m > 0 ? sum_t / out->distance_m : 0.0;
-  }
-}
-
-}  // namespace
-
-OdometryError OdometryErrorOverWindows(const std::vector<OdometryStep>& steps, double window_s,
-                                       bool keep_partial) {
-  OdometryError out;
-  WindowChain chain(&out);
-  for (const OdometryStep& step : steps) {
-    if (chain.open() && step.utime_start != chain.end()) chain.Close(keep_partial);  // a gap
-    chain.Add(step);
-    if ((chain.end() - chain.start()) * 1e-6 >= window_s) chain.Close(true);
-  }
-  chain.Close(keep_partial);
-  Summarize(&out);
-  return out;
-}
-
-OdometryError OdometryErrorOverPath(const std::vector<OdometryStep>& steps, double window_m) {
-  OdometryError out;
-  WindowChain chain(&out);
-  for (const OdometryStep& step : steps) {
-    if (chain.open() && step.utime_start != chain.end()) chain.Close(chain.distance() >= 0.5 * window_m);
-    chain.Add(step);
-    if (chain.distance() >= window_m) chain.Close(true);
-  }
-  chain.Close(chain.distance() >= 0.5 * window_m);
-  Summarize(&out);
-  return out;
-}
-
-double PathWindowLength(const std::vector<OdometryStep>& steps, int min_windows) {
-  double path = 0.0;
-  for (const OdometryStep& s : steps) path += std::hypot(s.measured.x, s.measured.y);
-  double best = path;
-  int best_count = 0;
-  for (double length = path; length > 1e-4 * path; length *= 0.95) {
-    const int count = OdometryErrorOverPath(steps, length).windows;
-    if (count >= min_windows) return length;
-    if (count > best_count) best = length, best_count = count;
-  }
-  return best;
-}
-
-PairedComparison ComparePaired(const OdometryError& first, const OdometryError& second) {
-  PairedComparison c;
-  const std::size_t n = std::min(first.per_window.size(), second.per_window.size());
-  c.windows = static_cast<int>(n);
-  std::vector<double> diff;
-  for (std::size_t i = 0; i < n; ++i) {
-    const double d = second.per_window[i].translation_m - first.per_window[i].translation_m;
-    diff.push_back(d);
-    if (std::abs(d) <= 1e-9) ++c.ties;
-    else if (d < 0) ++c.second_better;
-  }
-  if (n == 0) return c;
-  double mean = 0, var = 0;
-  for (double d : diff) mean += d / n;
-  for (double d : diff) var += (d - mean) * (d - mean) / std::max<double>(1, n - 1);
-  c.mean_difference_m = mean;
-  c.difference_sem_m = std::sqrt(var / n);
-  // Exact two-sided binomial: twice the smaller tail of Binomial(m, 1/2), in logs (no overflow).
-  const int m = c.windows - c.ties, k = std::min(c.second_better, m - c.second_better);
-  double tail = 0.0;
-  for (int j = 0; j <= k; ++j)
-    tail += std::exp(std::lgamma(m + 1.0) - std::lgamma(j + 1.0) - std::lgamma(m - j + 1.0) - m * std::log(2.0));
-  c.sign_test_p = m > 0 ? std::min(1.0, 2.0 * tail) : 1.0;
-  return c;
-}
-
-namespace {
-
 std::vector<OdometryStep> HeldoutSteps(const std::vector<Interval>& intervals, const State& state) {
   std::vector<OdometryStep> steps;
   for (const Interval& it : intervals) {
@@ -250,52 +130,6 @@ std::vector<OdometryStep> HeldoutSteps(const std::vector<Interval>& intervals, c
 OdometryError HeldoutOdometry(const std::vector<Interval>& intervals, const State& state,
                               double window_s, bool keep_partial = false) {
   return OdometryErrorOverWindows(HeldoutSteps(intervals, state), window_s, keep_partial);
-}
-
-double Percentile(std::vector<double> v, double q) {
-  if (v.empty()) return 0.0;
-  std::sort(v.begin(), v.end());
-  return v[std::min(v.size() - 1, static_cast<std::size_t>(q * (v.size() - 1) + 0.5))];
-}
-
-// Fit half against held-out half in the regressor that separates the drive parameters: the
-// steering angle of a steered drive, the share of turning in the wheels' rotation (0 straight,
-// ±1 in place) of a differential drive.
-MotionCoverage CompareMotion(DriveType drive, const WheelTrack& wheels,
-                             const std::vector<Interval>& intervals) {
-  MotionCoverage c;
-  const bool steered = drive != DriveType::kDifferential;
-  c.regressor = steered ? "steer" : "turn_share";
-  std::vector<double> fit, heldout;
-  std::vector<const Interval*> heldout_intervals;
-  for (const Interval& it : intervals) {
-    const double t0 = it.motion->utime_start, t1 = it.motion->utime_end;
-    double x;
-    if (steered) {
-      x = wheels.At(0.5 * (t0 + t1)).steer[0];
-    } else {
-      const WheelSample a = wheels.At(t0), b = wheels.At(t1);
-      const double l = b.position[0] - a.position[0], r = b.position[1] - a.position[1];
-      if (std::abs(l) + std::abs(r) < 1e-9) continue;  // standing still: no motion to compare
-      x = (r - l) / (std::abs(l) + std::abs(r));
-    }
-    (it.heldout ? heldout : fit).push_back(x);
-    if (it.heldout) heldout_intervals.push_back(&it);
-  }
-  c.fit_low = Percentile(fit, 0.01);
-  c.fit_high = Percentile(fit, 0.99);
-  c.heldout_low = Percentile(heldout, 0.01);
-  c.heldout_high = Percentile(heldout, 0.99);
-  // A margin of 2 % of the range, so that one count of a coarse encoder past it is not news.
-  const double margin = 0.02 * (c.fit_high - c.fit_low);
-  int outside = 0;
-  for (std::size_t k = 0; k < heldout.size(); ++k) {
-    if (heldout[k] >= c.fit_low - margin && heldout[k] <= c.fit_high + margin) continue;
-    ++outside;
-    c.outside_spans.emplace_back(heldout_intervals[k]->motion->utime_start, heldout_intervals[k]->motion->utime_end);
-  }
-  c.heldout_outside = heldout.empty() ? 0.0 : double(outside) / heldout.size();
-  return c;
 }
 
 // The motions the encoders cover (with `margin_us` either side), in stamp order; the others
@@ -429,27 +263,6 @@ const char* MotionSourceName(MotionSource source) {
     case MotionSource::kLidar2d: break;
   }
   return "lidar2d";
-}
-
-double ChiSquareUpperTail(double x, int dof) {
-  return x <= 0 ? 1.0 : Eigen::numext::igammac(0.5 * dof, 0.5 * x);
-}
-
-EstimateDifference CompareEstimates(const Eigen::VectorXd& delta, const Eigen::MatrixXd& sum,
-                                    const std::vector<std::string>& names) {
-  EstimateDifference d;
-  d.dof = static_cast<int>(delta.size());
-  d.d2 = delta.dot(sum.ldlt().solve(delta));
-  if (!std::isfinite(d.d2) || d.d2 < 0) d.d2 = INFINITY;
-  d.p = ChiSquareUpperTail(d.d2, d.dof);
-  for (int i = 0; i < d.dof; ++i) {
-    const double sigmas = std::abs(delta[i]) / std::sqrt(sum(i, i));
-    if (sigmas > d.largest_sigmas || d.largest.empty()) {
-      d.largest = names[i];
-      d.largest_sigmas = sigmas;
-    }
-  }
-  return d;
 }
 
 namespace {
@@ -704,25 +517,10 @@ CalibrationResult Calibrate(const RobotDescription& robot, const WheelTrack& whe
 
   // Held-out comparison of the nominal and the calibrated model.
   if (num_fit < intervals.size()) {
-    HeldoutComparison h;
+    HeldoutComparison h = CompareHeldout(HeldoutSteps(intervals, nominal), HeldoutSteps(intervals, state),
+                                         CompareMotion(robot.drive, wheels, usable, num_fit),
+                                         options.heldout_windows);
     h.intervals = static_cast<int>(intervals.size() - num_fit);
-    const std::vector<OdometryStep> nominal_steps = HeldoutSteps(intervals, nominal);
-    h.window_m = PathWindowLength(nominal_steps, options.heldout_windows);
-    h.nominal = OdometryErrorOverPath(nominal_steps, h.window_m);
-    h.calibrated = OdometryErrorOverPath(HeldoutSteps(intervals, state), h.window_m);
-    h.paired = ComparePaired(h.nominal, h.calibrated);
-    h.coverage = CompareMotion(robot.drive, wheels, intervals);
-    OdometryError inside[2];
-    for (std::size_t w = 0; w < h.nominal.per_window.size(); ++w) {
-      const WindowError& a = h.nominal.per_window[w];
-      const bool extrapolated = std::any_of(
-          h.coverage.outside_spans.begin(), h.coverage.outside_spans.end(),
-          [&](const auto& span) { return span.first < a.utime_end && span.second > a.utime_start; });
-      if (extrapolated) continue;
-      inside[0].per_window.push_back(a);
-      inside[1].per_window.push_back(h.calibrated.per_window[w]);
-    }
-    h.paired_within_fit_range = ComparePaired(inside[0], inside[1]);
     std::vector<SensorMotion> heldout_motions;
     for (std::size_t k = num_fit; k < usable.size(); ++k) heldout_motions.push_back(*usable[k]);
     h.halves = CompareHalves(robot, wheels, heldout_motions, source, options, origin, result);

@@ -11,10 +11,12 @@
 #include <Eigen/Dense>
 #include <ceres/ceres.h>
 
+#include "calib/calibrate/heldout.h"
 #include "calib/calibrate/interval_model.h"
 #include "calib/calibrate/recalibration.h"
 #include "calib/calibrate/solve_log.h"
 #include "calib/core/errors.h"
+#include "calib/core/statistics.h"
 #include "calib/io/messages.h"
 #include "calib/io/recording.h"
 #include "calib/match/laser_scan.h"
