@@ -117,6 +117,7 @@ Requirement RequirementFor(DriveType type, const std::string& name, double nomin
   return {0.05, "turn while driving: the sensor's position shows only when the robot rotates"};
 }
 
+// The model's error at `state` on each held-out interval, as steps to chain (heldout.h).
 std::vector<OdometryStep> HeldoutSteps(const std::vector<Interval>& intervals, const State& state) {
   std::vector<OdometryStep> steps;
   for (const Interval& it : intervals) {
@@ -310,6 +311,223 @@ std::optional<HalvesAgreement> CompareHalves(const RobotDescription& robot, cons
   return a;
 }
 
+// 1. The closed-form first estimate (kept in `result`): the refinement's start, or the nominal
+// values where it is not available or implausible.
+State FirstEstimate(const RobotDescription& robot, const State& nominal,
+                    const std::vector<MotionInterval>& input, CalibrationResult* result) {
+  const std::vector<std::string>& names = result->param_names;
+  const int num_params = static_cast<int>(names.size());
+  State state = nominal;
+  const ClosedFormEstimate cf = ClosedFormCalibration(robot.drive, robot.params, input);
+  if (!cf.ok) {
+    result->closed_form_note = "closed form not available: " + cf.problem;
+    return state;
+  }
+  for (int i = 0; i < num_params; ++i) result->closed_form[names[i]] = cf.params.at(names[i]);
+  result->closed_form["mount_x"] = cf.mount.x;
+  result->closed_form["mount_y"] = cf.mount.y;
+  result->closed_form["mount_yaw"] = cf.mount.theta;
+  // Plausible: every length within a factor of two of nominal, same sign.
+  bool plausible = true;
+  for (int i = 0; i < num_params; ++i) {
+    const double v = cf.params.at(names[i]), n = nominal.params[i];
+    if (names[i].find("offset") == std::string::npos && std::abs(n) > 1e-6)
+      plausible = plausible && v / n > 0.5 && v / n < 2.0;
+  }
+  if (!plausible) {
+    result->closed_form_note = "closed form far from nominal; refinement started from nominal";
+    return state;
+  }
+  for (int i = 0; i < num_params; ++i) state.params[i] = cf.params.at(names[i]);
+  state.mount[0] = cf.mount.x;
+  state.mount[1] = cf.mount.y;
+  state.mount[2] = cf.mount.theta;
+  return state;
+}
+
+// 2. Robust fit with a scale from the residuals at the start, then outliers, then the plain
+// maximum-likelihood refit on the inliers. Returns the residuals' robust scale.
+double RobustFit(std::vector<Interval>& intervals, int num_params, const CalibrationOptions& options,
+                 State* state) {
+  auto robust_scale = [&]() {
+    std::vector<double> chi2;
+    for (const Interval& it : intervals)
+      if (!it.heldout && !it.outlier) chi2.push_back(Chi2(it, *state));
+    return std::sqrt(RobustScale2(std::move(chi2)));
+  };
+  Solve(intervals, state, num_params, robust_scale(), true, options.estimate_time_offset,
+        options.max_time_offset_s);
+  double scale = 1.0;
+  for (int round = 0; round < 2; ++round) {
+    scale = robust_scale();
+    for (Interval& it : intervals) {
+      if (!it.heldout) it.outlier = IsOutlier(Chi2(it, *state), scale * scale, options.outlier_chi2);
+    }
+    Solve(intervals, state, num_params, scale, false, options.estimate_time_offset,
+          options.max_time_offset_s);
+  }
+  return scale;
+}
+
+// Every interval's residual at `state` (result->intervals) and their summary over the inliers
+// (result->residual), chi-squares in the robust `scale`; `dim` values were fitted.
+void SummarizeResiduals(const std::vector<Interval>& intervals, const State& state, double scale,
+                        std::size_t num_fit, int dim, CalibrationResult* result) {
+  double chi2_sum = 0.0;
+  int inliers = 0;
+  Eigen::Vector3d sum_e2 = Eigen::Vector3d::Zero();
+  for (const Interval& it : intervals) {
+    IntervalResidual r;
+    r.utime_start = it.motion->utime_start;
+    r.utime_end = it.motion->utime_end;
+    r.error = Error(it, state);
+    r.chi2 = Chi2(it, state) / (scale * scale);
+    r.outlier = it.outlier;
+    r.heldout = it.heldout;
+    result->intervals.push_back(r);
+    if (it.heldout || it.outlier) continue;
+    chi2_sum += r.chi2;
+    sum_e2 += r.error.cwiseAbs2();
+    ++inliers;
+  }
+  result->residual.intervals = static_cast<int>(num_fit);
+  for (const Interval& it : intervals) result->residual.outliers += (!it.heldout && it.outlier) ? 1 : 0;
+  result->residual.rms_x = std::sqrt(sum_e2[0] / inliers);
+  result->residual.rms_y = std::sqrt(sum_e2[1] / inliers);
+  result->residual.rms_yaw = std::sqrt(sum_e2[2] / inliers);
+  const double variance_factor = chi2_sum / std::max(1, 3 * inliers - dim);
+  result->residual.variance_factor = variance_factor * scale * scale;
+}
+
+// The inliers' whitened Jacobians J_k (columns: drive parameters, mount, the time offset when
+// estimated) and residuals r_k at `state`, both divided by the robust `scale`.
+struct Scores {
+  Eigen::MatrixXd information;  // H = sum J_k' J_k
+  std::vector<Eigen::MatrixXd> jacobians;
+  std::vector<Eigen::Vector3d> residuals;
+  std::vector<bool> follows_previous;  // the interval starts where the previous one ended
+};
+
+Scores InlierScores(const std::vector<Interval>& intervals, const State& state, int num_params,
+                    bool with_offset, double scale) {
+  const int dim = num_params + 3 + (with_offset ? 1 : 0);
+  Scores s;
+  s.information = Eigen::MatrixXd::Zero(dim, dim);
+  int64_t previous_end = -1;
+  for (const Interval& it : intervals) {
+    if (it.heldout || it.outlier) continue;
+    double residual[3];
+    std::vector<double> jp_compact(3 * num_params);  // row-major 3 x num_params
+    Eigen::Matrix<double, 3, 3, Eigen::RowMajor> jm;
+    Eigen::Matrix<double, 3, 1> jo;
+    double* jacobians[3] = {jp_compact.data(), jm.data(), jo.data()};
+    const double* values[3] = {state.params, state.mount, state.offset};
+    it.function->Evaluate(values, residual, jacobians);
+    Eigen::MatrixXd J(3, dim);
+    for (int row = 0; row < 3; ++row) {
+      for (int c = 0; c < num_params; ++c) J(row, c) = jp_compact[row * num_params + c];
+      for (int c = 0; c < 3; ++c) J(row, num_params + c) = jm(row, c);
+      if (with_offset) J(row, num_params + 3) = jo(row);
+    }
+    J /= scale;
+    s.information += J.transpose() * J;
+    s.follows_previous.push_back(!s.residuals.empty() && previous_end == it.motion->utime_start);
+    s.jacobians.push_back(J);
+    s.residuals.push_back(Eigen::Vector3d(residual[0], residual[1], residual[2]) / scale);
+    previous_end = it.motion->utime_end;
+  }
+  return s;
+}
+
+// 3. Covariance: the sandwich H^-1 M H^-1 with H the information of the whitened Jacobians and
+// M the spread of the per-interval scores g_k = J_k^T r_k, including the covariance of
+// neighbouring intervals (ScoreSpread). Neighbours share an observation (a scan, a pose), so
+// their errors are correlated: a shared pose's noise cancels in the sum of two motions, and
+// treating them as independent would make every sigma wrong. Sets result->covariance and
+// result->condition; returns the sigmas, infinite for what the data do not determine.
+std::vector<double> Covariance(const Scores& scores, CalibrationResult* result) {
+  const Eigen::MatrixXd& information = scores.information;
+  const int dim = static_cast<int>(information.rows());
+  const int inliers = static_cast<int>(scores.residuals.size());
+  // The sample spread is a little small by the parameters fitted; the usual dof correction.
+  const Eigen::MatrixXd spread = ScoreSpread(scores.jacobians, scores.residuals, scores.follows_previous) *
+                                 (double(3 * inliers) / std::max(1, 3 * inliers - dim));
+  // Observability: eigen-analysis of the correlation-normalised information.
+  const Eigen::VectorXd d = information.diagonal().cwiseMax(1e-300).cwiseSqrt();
+  const Eigen::MatrixXd correlation = d.asDiagonal().inverse() * information * d.asDiagonal().inverse();
+  Eigen::SelfAdjointEigenSolver<Eigen::MatrixXd> eig(correlation);
+  const double lmin = std::max(eig.eigenvalues()[0], 0.0), lmax = eig.eigenvalues()[dim - 1];
+  result->condition = lmin > 0 ? lmax / lmin : INFINITY;
+  // Pseudo-inverse restricted to the determined directions, so a singular direction shows as
+  // an unbounded sigma rather than a crash.
+  Eigen::VectorXd inv = Eigen::VectorXd::Zero(dim);
+  for (int i = 0; i < dim; ++i)
+    inv[i] = eig.eigenvalues()[i] > 1e-12 * lmax ? 1.0 / eig.eigenvalues()[i] : 0.0;
+  const Eigen::MatrixXd correlation_inverse =
+      eig.eigenvectors() * inv.asDiagonal() * eig.eigenvectors().transpose();
+  const Eigen::MatrixXd information_inverse =
+      d.asDiagonal().inverse() * correlation_inverse * d.asDiagonal().inverse();
+  result->covariance = information_inverse * spread * information_inverse;
+  std::vector<double> sigma(dim);
+  for (int i = 0; i < dim; ++i) {
+    sigma[i] = std::sqrt(std::max(result->covariance(i, i), 0.0));
+    for (int e = 0; e < dim; ++e) {  // a parameter in a singular direction is not determined
+      if (inv[e] == 0.0 && std::abs(eig.eigenvectors()(i, e)) > 0.3) sigma[i] = INFINITY;
+    }
+    if (d[i] <= 1e-150) sigma[i] = INFINITY;
+  }
+  return sigma;
+}
+
+// The estimates of `state` with their `sigma` and the `nominal` values, named in the order of
+// the covariance (result->estimated_names; the mount after the sensor `source`).
+void SetEstimates(const State& state, const State& nominal, const std::vector<double>& sigma,
+                  MotionSource source, bool with_offset, CalibrationResult* result) {
+  const int num_params = static_cast<int>(result->param_names.size());
+  for (int i = 0; i < num_params; ++i) result->estimated_names.push_back(result->param_names[i]);
+  for (const char* axis : {".x", ".y", ".yaw"})
+    result->estimated_names.push_back(std::string(MotionSourceName(source)) + axis);
+  if (with_offset) result->estimated_names.push_back("time_offset");
+  auto estimate = [&](int i, double value, double nominal_value) {
+    return Estimate{value, sigma[i], nominal_value};
+  };
+  for (int i = 0; i < num_params; ++i)
+    result->params[result->param_names[i]] = estimate(i, state.params[i], nominal.params[i]);
+  result->mount_x = estimate(num_params, state.mount[0], nominal.mount[0]);
+  result->mount_y = estimate(num_params + 1, state.mount[1], nominal.mount[1]);
+  result->mount_yaw = estimate(num_params + 2, WrapAngle(state.mount[2]), nominal.mount[2]);
+  if (with_offset) result->time_offset = estimate(num_params + 3, state.offset[0], 0.0);
+}
+
+// Refuses what the data cannot determine (UnobservableError naming it and the motion to add,
+// when `check`); lists what they determine poorly in result->weak, the refused ones last.
+void RefuseUndetermined(DriveType drive, const State& nominal, const std::vector<double>& sigma,
+                        bool check, const std::string& origin, CalibrationResult* result) {
+  const int num_params = static_cast<int>(result->param_names.size());
+  std::vector<std::string> refused, remedies;
+  const double nominal_values[] = {nominal.params[0], nominal.params[1], nominal.params[2],
+                                   nominal.params[3], nominal.params[4]};
+  for (std::size_t i = 0; i < sigma.size(); ++i) {
+    const std::string& name = result->estimated_names[i];
+    const Requirement req = RequirementFor(drive, name, int(i) < num_params ? nominal_values[i] : 0.0);
+    if (!(sigma[i] <= req.refuse)) {
+      refused.push_back(name);
+      if (std::find(remedies.begin(), remedies.end(), req.remedy) == remedies.end())
+        remedies.push_back(req.remedy);
+    } else if (sigma[i] > 0.1 * req.refuse) {
+      result->weak.push_back(name);
+    }
+  }
+  if (check && !refused.empty()) {
+    std::ostringstream what, remedy;
+    what << origin << ": the recording cannot determine ";
+    for (std::size_t i = 0; i < refused.size(); ++i) what << (i ? ", " : "") << refused[i];
+    for (std::size_t i = 0; i < remedies.size(); ++i) remedy << (i ? "; " : "") << remedies[i];
+    throw UnobservableError(what.str(), remedy.str());
+  }
+  result->weak.insert(result->weak.end(), refused.begin(), refused.end());
+}
+
 }  // namespace
 
 CalibrationResult Calibrate(const RobotDescription& robot, const WheelTrack& wheels,
@@ -320,10 +538,10 @@ CalibrationResult Calibrate(const RobotDescription& robot, const WheelTrack& whe
   result.source = source;
   result.param_names = ParamNames(robot.drive);
   const int num_params = static_cast<int>(result.param_names.size());
-  const std::string mount_name = MotionSourceName(source);
+  const bool with_offset = options.estimate_time_offset;
 
   // Intervals the encoders cover (with room for the time offset), in stamp order.
-  const double margin_us = options.estimate_time_offset ? options.max_time_offset_s * 1e6 : 0.0;
+  const double margin_us = with_offset ? options.max_time_offset_s * 1e6 : 0.0;
   const std::vector<const SensorMotion*> usable = UsableMotions(wheels, motions, margin_us, &result.residual);
   const std::size_t num_fit =
       static_cast<std::size_t>(std::floor(usable.size() * std::clamp(options.fit_fraction, 0.0, 1.0)));
@@ -345,177 +563,16 @@ CalibrationResult Calibrate(const RobotDescription& robot, const WheelTrack& whe
     if (k < num_fit) closed_form_input.push_back({wheels.Increments(m.utime_start, m.utime_end), m.delta});
   }
 
-  // 1. Closed-form first estimate; the nominal values where it is not available or implausible.
   const State nominal = StateOf(robot, source);
-  State state = nominal;
-  const ClosedFormEstimate cf = ClosedFormCalibration(robot.drive, robot.params, closed_form_input);
-  if (cf.ok) {
-    for (int i = 0; i < num_params; ++i) result.closed_form[result.param_names[i]] = cf.params.at(result.param_names[i]);
-    result.closed_form["mount_x"] = cf.mount.x;
-    result.closed_form["mount_y"] = cf.mount.y;
-    result.closed_form["mount_yaw"] = cf.mount.theta;
-    // Plausible: every length within a factor of two of nominal, same sign.
-    bool plausible = true;
-    for (int i = 0; i < num_params; ++i) {
-      const std::string& name = result.param_names[i];
-      const double v = cf.params.at(name), n = nominal.params[i];
-      if (name.find("offset") == std::string::npos && std::abs(n) > 1e-6)
-        plausible = plausible && v / n > 0.5 && v / n < 2.0;
-    }
-    if (plausible) {
-      for (int i = 0; i < num_params; ++i) state.params[i] = cf.params.at(result.param_names[i]);
-      state.mount[0] = cf.mount.x;
-      state.mount[1] = cf.mount.y;
-      state.mount[2] = cf.mount.theta;
-    } else {
-      result.closed_form_note = "closed form far from nominal; refinement started from nominal";
-    }
-  } else {
-    result.closed_form_note = "closed form not available: " + cf.problem;
-  }
+  State state = FirstEstimate(robot, nominal, closed_form_input, &result);
+  const double scale = RobustFit(intervals, num_params, options, &state);
+  const int dim = num_params + 3 + (with_offset ? 1 : 0);
+  SummarizeResiduals(intervals, state, scale, num_fit, dim, &result);
+  const std::vector<double> sigma = Covariance(InlierScores(intervals, state, num_params, with_offset, scale), &result);
+  SetEstimates(state, nominal, sigma, source, with_offset, &result);
+  RefuseUndetermined(robot.drive, nominal, sigma, options.check_observability, origin, &result);
 
-  // 2. Robust fit with a scale from the residuals at the start, then outliers, then the
-  //    plain maximum-likelihood refit on the inliers.
-  auto robust_scale = [&]() {
-    std::vector<double> chi2;
-    for (const Interval& it : intervals)
-      if (!it.heldout && !it.outlier) chi2.push_back(Chi2(it, state));
-    return std::sqrt(RobustScale2(std::move(chi2)));
-  };
-  Solve(intervals, &state, num_params, robust_scale(), true, options.estimate_time_offset,
-        options.max_time_offset_s);
-  double scale = 1.0;
-  for (int round = 0; round < 2; ++round) {
-    scale = robust_scale();
-    for (Interval& it : intervals) {
-      if (!it.heldout) it.outlier = IsOutlier(Chi2(it, state), scale * scale, options.outlier_chi2);
-    }
-    Solve(intervals, &state, num_params, scale, false, options.estimate_time_offset,
-          options.max_time_offset_s);
-  }
-
-  // 3. Covariance: the sandwich H^-1 M H^-1 with H the information of the whitened Jacobians
-  //    and M the spread of the per-interval scores g_k = J_k^T r_k, including the covariance of
-  //    neighbouring intervals (ScoreSpread). Neighbours share an observation (a scan, a pose),
-  //    so their errors are correlated: a shared pose's noise cancels in the sum of two motions,
-  //    and treating them as independent would make every sigma wrong.
-  const int dim = num_params + 3 + (options.estimate_time_offset ? 1 : 0);
-  Eigen::MatrixXd information = Eigen::MatrixXd::Zero(dim, dim);
-  std::vector<Eigen::MatrixXd> inlier_jacobians;  // whitened
-  std::vector<Eigen::Vector3d> residuals;
-  std::vector<bool> follows_previous;  // the interval starts where the previous one ended
-  int64_t previous_end = -1;
-  double chi2_sum = 0.0;
-  int inliers = 0;
-  Eigen::Vector3d sum_e2 = Eigen::Vector3d::Zero();
-  for (const Interval& it : intervals) {
-    IntervalResidual r;
-    r.utime_start = it.motion->utime_start;
-    r.utime_end = it.motion->utime_end;
-    r.error = Error(it, state);
-    r.chi2 = Chi2(it, state) / (scale * scale);
-    r.outlier = it.outlier;
-    r.heldout = it.heldout;
-    result.intervals.push_back(r);
-    if (it.heldout || it.outlier) continue;
-    double residual[3];
-    std::vector<double> jp_compact(3 * num_params);  // row-major 3 x num_params
-    Eigen::Matrix<double, 3, 3, Eigen::RowMajor> jm;
-    Eigen::Matrix<double, 3, 1> jo;
-    double* jacobians[3] = {jp_compact.data(), jm.data(), jo.data()};
-    const double* values[3] = {state.params, state.mount, state.offset};
-    it.function->Evaluate(values, residual, jacobians);
-    Eigen::MatrixXd J(3, dim);
-    for (int row = 0; row < 3; ++row) {
-      for (int c = 0; c < num_params; ++c) J(row, c) = jp_compact[row * num_params + c];
-      for (int c = 0; c < 3; ++c) J(row, num_params + c) = jm(row, c);
-      if (options.estimate_time_offset) J(row, num_params + 3) = jo(row);
-    }
-    J /= scale;
-    information += J.transpose() * J;
-    follows_previous.push_back(!residuals.empty() && previous_end == it.motion->utime_start);
-    inlier_jacobians.push_back(J);
-    residuals.push_back(Eigen::Vector3d(residual[0], residual[1], residual[2]) / scale);
-    previous_end = it.motion->utime_end;
-    chi2_sum += r.chi2;
-    sum_e2 += r.error.cwiseAbs2();
-    ++inliers;
-  }
-  result.residual.intervals = static_cast<int>(num_fit);
-  for (const Interval& it : intervals) result.residual.outliers += (!it.heldout && it.outlier) ? 1 : 0;
-  result.residual.rms_x = std::sqrt(sum_e2[0] / inliers);
-  result.residual.rms_y = std::sqrt(sum_e2[1] / inliers);
-  result.residual.rms_yaw = std::sqrt(sum_e2[2] / inliers);
-  const double variance_factor = chi2_sum / std::max(1, 3 * inliers - dim);
-  result.residual.variance_factor = variance_factor * scale * scale;
-  // The sample spread is a little small by the parameters fitted; the usual dof correction.
-  const Eigen::MatrixXd spread =
-      ScoreSpread(inlier_jacobians, residuals, follows_previous) * (double(3 * inliers) / std::max(1, 3 * inliers - dim));
-
-  for (int i = 0; i < num_params; ++i) result.estimated_names.push_back(result.param_names[i]);
-  for (const char* axis : {".x", ".y", ".yaw"}) result.estimated_names.push_back(mount_name + axis);
-  if (options.estimate_time_offset) result.estimated_names.push_back("time_offset");
-
-  // Observability: eigen-analysis of the correlation-normalised information.
-  const Eigen::VectorXd d = information.diagonal().cwiseMax(1e-300).cwiseSqrt();
-  const Eigen::MatrixXd correlation = d.asDiagonal().inverse() * information * d.asDiagonal().inverse();
-  Eigen::SelfAdjointEigenSolver<Eigen::MatrixXd> eig(correlation);
-  const double lmin = std::max(eig.eigenvalues()[0], 0.0), lmax = eig.eigenvalues()[dim - 1];
-  result.condition = lmin > 0 ? lmax / lmin : INFINITY;
-  // Pseudo-inverse restricted to the determined directions, so a singular direction shows as
-  // an unbounded sigma rather than a crash.
-  Eigen::VectorXd inv = Eigen::VectorXd::Zero(dim);
-  for (int i = 0; i < dim; ++i)
-    inv[i] = eig.eigenvalues()[i] > 1e-12 * lmax ? 1.0 / eig.eigenvalues()[i] : 0.0;
-  const Eigen::MatrixXd correlation_inverse =
-      eig.eigenvectors() * inv.asDiagonal() * eig.eigenvectors().transpose();
-  const Eigen::MatrixXd information_inverse =
-      d.asDiagonal().inverse() * correlation_inverse * d.asDiagonal().inverse();
-  result.covariance = information_inverse * spread * information_inverse;
-  std::vector<double> sigma(dim);
-  for (int i = 0; i < dim; ++i) {
-    sigma[i] = std::sqrt(std::max(result.covariance(i, i), 0.0));
-    for (int e = 0; e < dim; ++e) {  // a parameter in a singular direction is not determined
-      if (inv[e] == 0.0 && std::abs(eig.eigenvectors()(i, e)) > 0.3) sigma[i] = INFINITY;
-    }
-    if (d[i] <= 1e-150) sigma[i] = INFINITY;
-  }
-
-  auto estimate = [&](int i, double value, double nominal_value) {
-    return Estimate{value, sigma[i], nominal_value};
-  };
-  for (int i = 0; i < num_params; ++i)
-    result.params[result.param_names[i]] = estimate(i, state.params[i], nominal.params[i]);
-  result.mount_x = estimate(num_params, state.mount[0], nominal.mount[0]);
-  result.mount_y = estimate(num_params + 1, state.mount[1], nominal.mount[1]);
-  result.mount_yaw = estimate(num_params + 2, WrapAngle(state.mount[2]), nominal.mount[2]);
-  if (options.estimate_time_offset) result.time_offset = estimate(num_params + 3, state.offset[0], 0.0);
-
-  // Refuse what the data cannot determine; list what they determine poorly.
-  std::vector<std::string> refused, remedies;
-  const double nominal_values[] = {nominal.params[0], nominal.params[1], nominal.params[2],
-                                   nominal.params[3], nominal.params[4]};
-  for (int i = 0; i < dim; ++i) {
-    const std::string& name = result.estimated_names[i];
-    const Requirement req = RequirementFor(robot.drive, name, i < num_params ? nominal_values[i] : 0.0);
-    if (!(sigma[i] <= req.refuse)) {
-      refused.push_back(name);
-      if (std::find(remedies.begin(), remedies.end(), req.remedy) == remedies.end())
-        remedies.push_back(req.remedy);
-    } else if (sigma[i] > 0.1 * req.refuse) {
-      result.weak.push_back(name);
-    }
-  }
-  if (options.check_observability && !refused.empty()) {
-    std::ostringstream what, remedy;
-    what << origin << ": the recording cannot determine ";
-    for (std::size_t i = 0; i < refused.size(); ++i) what << (i ? ", " : "") << refused[i];
-    for (std::size_t i = 0; i < remedies.size(); ++i) remedy << (i ? "; " : "") << remedies[i];
-    throw UnobservableError(what.str(), remedy.str());
-  }
-  result.weak.insert(result.weak.end(), refused.begin(), refused.end());
-
-  // Held-out comparison of the nominal and the calibrated model.
+  // 4. Held-out comparison of the nominal and the calibrated model.
   if (num_fit < intervals.size()) {
     HeldoutComparison h = CompareHeldout(HeldoutSteps(intervals, nominal), HeldoutSteps(intervals, state),
                                          CompareMotion(robot.drive, wheels, usable, num_fit),
