@@ -10,7 +10,9 @@
 
 #include "calib/calibrate/calibration.h"
 #include "calib/calibrate/calibration_data.h"
+#include "calib/calibrate/heldout.h"
 #include "calib/core/errors.h"
+#include "calib/core/statistics.h"
 #include "calib/io/messages.h"
 #include "calib/live/sim_run.h"
 #include "calib/sim/simulator.h"
@@ -215,7 +217,7 @@ TEST(HeldoutWindows, SignTestIsTheExactBinomial) {
   EXPECT_EQ(c.windows, 20);
   EXPECT_EQ(c.second_better, 15);
   EXPECT_NEAR(c.sign_test_p, 0.041389, 1e-6);  // 2 * P(X <= 5), X ~ Binomial(20, 1/2)
-  EXPECT_NEAR(c.mean_difference_m, (15 * -0.005 + 5 * 0.010) / 20, 1e-12);
+  EXPECT_NEAR(c.mean_difference, (15 * -0.005 + 5 * 0.010) / 20, 1e-12);
   // Ties leave the test: 15 better, 5 equal -> 15 of 15, p = 2 / 2^15.
   for (int k = 15; k < 20; ++k) b.per_window[k].translation_m = 0.010;
   c = ComparePaired(a, b);

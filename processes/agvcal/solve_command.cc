@@ -2,9 +2,12 @@
 #include <cstdio>
 #include <iostream>
 
+#include "calib/calibrate/calibration.h"
+#include "calib/calibrate/heldout.h"
 #include "calib/calibrate/result_files.h"
 #include "calib/calibrate/solve_log.h"
 #include "calib/core/errors.h"
+#include "calib/core/statistics.h"
 #include "commands.h"
 #include "common/process_util.h"
 
@@ -119,7 +122,7 @@ int Solve(int argc, char** argv) {
                 h.nominal.error_per_metre, h.calibrated.error_per_metre, h.calibrated.windows, h.window_m);
     std::printf("  calibrated better in %d of %d windows (sign test p = %.3g); end error %+.4f ± %.4f m\n",
                 h.paired.second_better, h.paired.windows - h.paired.ties, h.paired.sign_test_p,
-                h.paired.mean_difference_m, h.paired.difference_sem_m);
+                h.paired.mean_difference, h.paired.difference_sem);
     std::printf("  %s: fit half %.3g..%.3g, held-out %.3g..%.3g, %.0f %% of held-out intervals outside the fit's range\n",
                 h.coverage.regressor.c_str(), h.coverage.fit_low, h.coverage.fit_high, h.coverage.heldout_low,
                 h.coverage.heldout_high, 100 * h.coverage.heldout_outside);

@@ -3,127 +3,24 @@
 #include <algorithm>
 #include <cmath>
 #include <memory>
+#include <optional>
 #include <sstream>
+#include <string>
+#include <vector>
 
 #include <Eigen/Dense>
 #include <ceres/ceres.h>
-#include <unsupported/Eigen/SpecialFunctions>
 
 #include "calib/calibrate/closed_form.h"
+#include "calib/calibrate/heldout.h"
+#include "calib/calibrate/interval_model.h"
 #include "calib/core/errors.h"
-#include "calib/core/kinematics_generic.h"
+#include "calib/core/statistics.h"
 
 namespace calib {
 namespace {
 
 constexpr int kMaxParams = 5;
-// Median of a chi-square variable with 3 degrees of freedom: robust scale of the residuals.
-constexpr double kChi2Median3 = 2.366;
-
-double Scalar(double x) { return x; }
-template <typename T, int N>
-double Scalar(const ceres::Jet<T, N>& x) {
-  return x.a;
-}
-
-// One interval's residual: measured sensor motion minus the one predicted from the encoders,
-// the drive parameters, the mount and the time offset, whitened by the measurement's
-// covariance. The encoder samples are those around the interval, times relative to its start.
-class IntervalCost {
- public:
-  IntervalCost(DriveType type, int num_wheels, std::vector<double> times,
-               std::vector<WheelSample> samples, double duration, const Pose2& measured,
-               const Eigen::Matrix3d& sqrt_information)
-      : type_(type), num_wheels_(num_wheels), times_(std::move(times)),
-        samples_(std::move(samples)), duration_(duration),
-        measured_(measured.x, measured.y, measured.theta), sqrt_information_(sqrt_information) {}
-
-  template <typename T>
-  bool operator()(const T* params, const T* mount, const T* offset, T* residual) const {
-    T e[3];
-    Error(params, mount, offset, e);
-    for (int i = 0; i < 3; ++i) {
-      residual[i] = T(0.0);
-      for (int j = 0; j < 3; ++j) residual[i] += sqrt_information_(i, j) * e[j];
-    }
-    return true;
-  }
-
-  // Measured minus predicted (x, y, theta), unwhitened.
-  template <typename T>
-  void Error(const T* params, const T* mount, const T* offset, T* e) const {
-    using P = generic::Pose<T>;
-    P q{T(0.0), T(0.0), T(0.0)};
-    // The scan stamped t was taken at wheel time t - offset (spec/effects.md time_offset).
-    ForEachStep(-offset[0], T(duration_) - offset[0], [&](const T* rotation, const T* steer) {
-      T dx = T(0.0), dy = T(0.0), dtheta = T(0.0);
-      generic::BodyDisplacement(type_, params, rotation, steer, &dx, &dy, &dtheta);
-      q = generic::Compose(q, generic::Exp(dx, dy, dtheta));
-    });
-    const P l{mount[0], mount[1], mount[2]};
-    const P z = generic::Compose(generic::Compose(generic::Inverse(l), q), l);
-    e[0] = T(measured_[0]) - z.x;
-    e[1] = T(measured_[1]) - z.y;
-    const double turns = std::round((measured_[2] - Scalar(z.theta)) / (2.0 * M_PI));
-    e[2] = T(measured_[2]) - z.theta - T(turns * 2.0 * M_PI);
-  }
-
- private:
-  // Calls step(rotation, mean_steer) for each encoder step over [start, end] (s, relative to
-  // the interval's start), the first and last cut by interpolation.
-  template <typename T, typename Step>
-  void ForEachStep(const T& start, const T& end, Step step) const {
-    std::size_t i = Segment(Scalar(start));
-    const std::size_t last = Segment(Scalar(end));
-    T prev_pos[2], prev_steer[2], pos[2], steer[2];
-    Interpolate(i, start, prev_pos, prev_steer);
-    for (;;) {
-      const bool final_step = i >= last;
-      if (final_step) {
-        Interpolate(last, end, pos, steer);
-      } else {
-        ++i;
-        for (int w = 0; w < num_wheels_; ++w) {
-          pos[w] = T(samples_[i].position[w]);
-          steer[w] = T(samples_[i].steer[w]);
-        }
-      }
-      T rotation[2], mean_steer[2];
-      for (int w = 0; w < num_wheels_; ++w) {
-        rotation[w] = pos[w] - prev_pos[w];
-        mean_steer[w] = 0.5 * (steer[w] + prev_steer[w]);
-        prev_pos[w] = pos[w];
-        prev_steer[w] = steer[w];
-      }
-      step(rotation, mean_steer);
-      if (final_step) break;
-    }
-  }
-
-  // Index i of the sample interval [times_[i], times_[i+1]] that holds t (clamped).
-  std::size_t Segment(double t) const {
-    const auto it = std::upper_bound(times_.begin(), times_.end(), t);
-    const std::size_t i = it == times_.begin() ? 0 : std::size_t(it - times_.begin()) - 1;
-    return std::min(i, times_.size() - 2);
-  }
-
-  template <typename T>
-  void Interpolate(std::size_t i, const T& t, T* pos, T* steer) const {
-    const T s = (t - times_[i]) / (times_[i + 1] - times_[i]);
-    for (int w = 0; w < num_wheels_; ++w) {
-      pos[w] = samples_[i].position[w] + s * (samples_[i + 1].position[w] - samples_[i].position[w]);
-      steer[w] = samples_[i].steer[w] + s * (samples_[i + 1].steer[w] - samples_[i].steer[w]);
-    }
-  }
-
-  DriveType type_;
-  int num_wheels_;
-  std::vector<double> times_;  // s, relative to the interval's start stamp
-  std::vector<WheelSample> samples_;
-  double duration_;
-  Eigen::Vector3d measured_;
-  Eigen::Matrix3d sqrt_information_;
-};
 
 // The parameter vector: drive parameters, mount, time offset.
 struct State {
@@ -134,23 +31,15 @@ struct State {
 
 struct Interval {
   const SensorMotion* motion;
-  std::unique_ptr<IntervalCost> cost;
+  std::unique_ptr<DriveIntervalCost> cost;
   std::unique_ptr<ceres::CostFunction> function;
   bool heldout = false;
   bool outlier = false;
 };
 
-Eigen::Matrix3d SqrtInformation(const Eigen::Matrix3d& covariance) {
-  Eigen::LLT<Eigen::Matrix3d> llt(covariance.inverse());
-  if (!covariance.allFinite() || llt.info() != Eigen::Success || !llt.matrixU().toDenseMatrix().allFinite()) {
-    return Eigen::Vector3d(1.0 / 0.01, 1.0 / 0.01, 1.0 / 0.005).asDiagonal();  // 1 cm, 0.3 deg
-  }
-  return llt.matrixU();
-}
-
 template <int N>
-ceres::CostFunction* MakeFunction(IntervalCost* cost) {
-  return new ceres::AutoDiffCostFunction<IntervalCost, 3, N, 3, 1>(cost, ceres::DO_NOT_TAKE_OWNERSHIP);
+ceres::CostFunction* MakeFunction(DriveIntervalCost* cost) {
+  return new ceres::AutoDiffCostFunction<DriveIntervalCost, 3, N, 3, 1>(cost, ceres::DO_NOT_TAKE_OWNERSHIP);
 }
 
 // Whitened residual chi-square of an interval at `state`.
@@ -165,12 +54,6 @@ Eigen::Vector3d Error(const Interval& interval, const State& state) {
   double e[3];
   interval.cost->Error(state.params, state.mount, state.offset, e);
   return {e[0], e[1], e[2]};
-}
-
-double Median(std::vector<double> v) {
-  if (v.empty()) return 0.0;
-  std::nth_element(v.begin(), v.begin() + v.size() / 2, v.end());
-  return v[v.size() / 2];
 }
 
 // Least squares over the intervals selected, with the residuals divided by `scale`.
@@ -234,130 +117,7 @@ Requirement RequirementFor(DriveType type, const std::string& name, double nomin
   return {0.05, "turn while driving: the sensor's position shows only when the robot rotates"};
 }
 
-// Chains one window's steps; Close() adds the window to `out`.
-class WindowChain {
- public:
-  explicit WindowChain(OdometryError* out) : out_(out) {}
-  bool open() const { return open_; }
-  double distance() const { return distance_; }
-  int64_t start() const { return start_; }
-  int64_t end() const { return end_; }
-  void Add(const OdometryStep& step) {
-    if (!open_) {
-      measured_ = predicted_ = Pose2{};
-      distance_ = 0.0;
-      start_ = step.utime_start;
-      open_ = true;
-    }
-    const Pose2& z = step.measured;
-    measured_ = Compose(measured_, z);
-    predicted_ = Compose(predicted_, Pose2{z.x - step.error[0], z.y - step.error[1], z.theta - step.error[2]});
-    distance_ += std::hypot(z.x, z.y);
-    end_ = step.utime_end;
-  }
-  void Close(bool keep) {
-    if (open_ && keep) {
-      const Pose2 d = Between(predicted_, measured_);
-      out_->per_window.push_back({start_, end_, distance_, std::hypot(d.x, d.y), d.theta});
-    }
-    open_ = false;
-  }
-
- private:
-  OdometryError* out_;
-  Pose2 measured_, predicted_;
-  int64_t start_ = 0, end_ = 0;
-  double distance_ = 0.0;
-  bool open_ = false;
-};
-
-void Summarize(OdometryError* out) {
-  double sum_t2 = 0, sum_h2 = 0, sum_t = 0;
-  out->windows = static_cast<int>(out->per_window.size());
-  out->distance_m = 0.0;
-  for (const WindowError& w : out->per_window) {
-    sum_t2 += w.translation_m * w.translation_m;
-    sum_t += w.translation_m;
-    sum_h2 += w.heading_rad * w.heading_rad;
-    out->distance_m += w.distance_m;
-  }
-  if (out->windows > 0) {
-    out->rms_translation_m = std::sqrt(sum_t2 / out->windows);
-    out->rms_heading_rad = std::sqrt(sum_h2 / out->windows);
-    out->error_per_metre = out->distance_m > 0 ? sum_t / out->distance_m : 0.0;
-  }
-}
-
-}  // namespace
-
-OdometryError OdometryErrorOverWindows(const std::vector<OdometryStep>& steps, double window_s,
-                                       bool keep_partial) {
-  OdometryError out;
-  WindowChain chain(&out);
-  for (const OdometryStep& step : steps) {
-    if (chain.open() && step.utime_start != chain.end()) chain.Close(keep_partial);  // a gap
-    chain.Add(step);
-    if ((chain.end() - chain.start()) * 1e-6 >= window_s) chain.Close(true);
-  }
-  chain.Close(keep_partial);
-  Summarize(&out);
-  return out;
-}
-
-OdometryError OdometryErrorOverPath(const std::vector<OdometryStep>& steps, double window_m) {
-  OdometryError out;
-  WindowChain chain(&out);
-  for (const OdometryStep& step : steps) {
-    if (chain.open() && step.utime_start != chain.end()) chain.Close(chain.distance() >= 0.5 * window_m);
-    chain.Add(step);
-    if (chain.distance() >= window_m) chain.Close(true);
-  }
-  chain.Close(chain.distance() >= 0.5 * window_m);
-  Summarize(&out);
-  return out;
-}
-
-double PathWindowLength(const std::vector<OdometryStep>& steps, int min_windows) {
-  double path = 0.0;
-  for (const OdometryStep& s : steps) path += std::hypot(s.measured.x, s.measured.y);
-  double best = path;
-  int best_count = 0;
-  for (double length = path; length > 1e-4 * path; length *= 0.95) {
-    const int count = OdometryErrorOverPath(steps, length).windows;
-    if (count >= min_windows) return length;
-    if (count > best_count) best = length, best_count = count;
-  }
-  return best;
-}
-
-PairedComparison ComparePaired(const OdometryError& first, const OdometryError& second) {
-  PairedComparison c;
-  const std::size_t n = std::min(first.per_window.size(), second.per_window.size());
-  c.windows = static_cast<int>(n);
-  std::vector<double> diff;
-  for (std::size_t i = 0; i < n; ++i) {
-    const double d = second.per_window[i].translation_m - first.per_window[i].translation_m;
-    diff.push_back(d);
-    if (std::abs(d) <= 1e-9) ++c.ties;
-    else if (d < 0) ++c.second_better;
-  }
-  if (n == 0) return c;
-  double mean = 0, var = 0;
-  for (double d : diff) mean += d / n;
-  for (double d : diff) var += (d - mean) * (d - mean) / std::max<double>(1, n - 1);
-  c.mean_difference_m = mean;
-  c.difference_sem_m = std::sqrt(var / n);
-  // Exact two-sided binomial: twice the smaller tail of Binomial(m, 1/2), in logs (no overflow).
-  const int m = c.windows - c.ties, k = std::min(c.second_better, m - c.second_better);
-  double tail = 0.0;
-  for (int j = 0; j <= k; ++j)
-    tail += std::exp(std::lgamma(m + 1.0) - std::lgamma(j + 1.0) - std::lgamma(m - j + 1.0) - m * std::log(2.0));
-  c.sign_test_p = m > 0 ? std::min(1.0, 2.0 * tail) : 1.0;
-  return c;
-}
-
-namespace {
-
+// The model's error at `state` on each held-out interval, as steps to chain (heldout.h).
 std::vector<OdometryStep> HeldoutSteps(const std::vector<Interval>& intervals, const State& state) {
   std::vector<OdometryStep> steps;
   for (const Interval& it : intervals) {
@@ -371,52 +131,6 @@ std::vector<OdometryStep> HeldoutSteps(const std::vector<Interval>& intervals, c
 OdometryError HeldoutOdometry(const std::vector<Interval>& intervals, const State& state,
                               double window_s, bool keep_partial = false) {
   return OdometryErrorOverWindows(HeldoutSteps(intervals, state), window_s, keep_partial);
-}
-
-double Percentile(std::vector<double> v, double q) {
-  if (v.empty()) return 0.0;
-  std::sort(v.begin(), v.end());
-  return v[std::min(v.size() - 1, static_cast<std::size_t>(q * (v.size() - 1) + 0.5))];
-}
-
-// Fit half against held-out half in the regressor that separates the drive parameters: the
-// steering angle of a steered drive, the share of turning in the wheels' rotation (0 straight,
-// ±1 in place) of a differential drive.
-MotionCoverage CompareMotion(DriveType drive, const WheelTrack& wheels,
-                             const std::vector<Interval>& intervals) {
-  MotionCoverage c;
-  const bool steered = drive != DriveType::kDifferential;
-  c.regressor = steered ? "steer" : "turn_share";
-  std::vector<double> fit, heldout;
-  std::vector<const Interval*> heldout_intervals;
-  for (const Interval& it : intervals) {
-    const double t0 = it.motion->utime_start, t1 = it.motion->utime_end;
-    double x;
-    if (steered) {
-      x = wheels.At(0.5 * (t0 + t1)).steer[0];
-    } else {
-      const WheelSample a = wheels.At(t0), b = wheels.At(t1);
-      const double l = b.position[0] - a.position[0], r = b.position[1] - a.position[1];
-      if (std::abs(l) + std::abs(r) < 1e-9) continue;  // standing still: no motion to compare
-      x = (r - l) / (std::abs(l) + std::abs(r));
-    }
-    (it.heldout ? heldout : fit).push_back(x);
-    if (it.heldout) heldout_intervals.push_back(&it);
-  }
-  c.fit_low = Percentile(fit, 0.01);
-  c.fit_high = Percentile(fit, 0.99);
-  c.heldout_low = Percentile(heldout, 0.01);
-  c.heldout_high = Percentile(heldout, 0.99);
-  // A margin of 2 % of the range, so that one count of a coarse encoder past it is not news.
-  const double margin = 0.02 * (c.fit_high - c.fit_low);
-  int outside = 0;
-  for (std::size_t k = 0; k < heldout.size(); ++k) {
-    if (heldout[k] >= c.fit_low - margin && heldout[k] <= c.fit_high + margin) continue;
-    ++outside;
-    c.outside_spans.emplace_back(heldout_intervals[k]->motion->utime_start, heldout_intervals[k]->motion->utime_end);
-  }
-  c.heldout_outside = heldout.empty() ? 0.0 : double(outside) / heldout.size();
-  return c;
 }
 
 // The motions the encoders cover (with `margin_us` either side), in stamp order; the others
@@ -442,27 +156,21 @@ std::vector<const SensorMotion*> UsableMotions(const WheelTrack& wheels,
   return usable;
 }
 
-// The cost of an interval: the encoder samples spanning it, times relative to its start.
-Interval MakeInterval(DriveType drive, int num_params, const WheelTrack& wheels,
-                      const SensorMotion& m, double margin_us, bool heldout) {
-  const auto& samples = wheels.samples();
+// The cost of an interval: the encoder samples spanning it (with `margin_us` either side).
+Interval MakeInterval(const EncoderTrack& track, int num_params, const SensorMotion& m,
+                      double margin_us, bool heldout) {
+  const std::vector<int64_t>& utime = track.utime;
   const double t0 = m.utime_start - margin_us, t1 = m.utime_end + margin_us;
-  auto first = std::upper_bound(samples.begin(), samples.end(), t0,
-                                [](double t, const WheelSample& s) { return t < s.utime; });
-  if (first != samples.begin()) --first;
-  auto last = std::lower_bound(samples.begin(), samples.end(), t1,
-                               [](const WheelSample& s, double t) { return s.utime < t; });
-  if (last == samples.end()) --last;
-  std::vector<WheelSample> span(first, last + 1);
-  std::vector<double> times;
-  for (const WheelSample& s : span) times.push_back((s.utime - m.utime_start) * 1e-6);
+  auto first = std::upper_bound(utime.begin(), utime.end(), t0, [](double t, int64_t u) { return t < u; });
+  if (first != utime.begin()) --first;
+  auto last = std::lower_bound(utime.begin(), utime.end(), t1, [](int64_t u, double t) { return u < t; });
+  if (last == utime.end()) --last;
   Interval it;
   it.motion = &m;
   it.heldout = heldout;
-  const int num_wheels = static_cast<int>(WheelRoles(drive).size());
-  it.cost = std::make_unique<IntervalCost>(drive, num_wheels, std::move(times), std::move(span),
-                                           (m.utime_end - m.utime_start) * 1e-6, m.delta,
-                                           SqrtInformation(m.covariance));
+  it.cost = std::make_unique<DriveIntervalCost>(
+      &track, first - utime.begin(), last - utime.begin(), m.utime_start, (m.utime_end - m.utime_start) * 1e-6,
+      Eigen::Vector3d(m.delta.x, m.delta.y, m.delta.theta), SqrtInformation(m.covariance));
   it.function.reset(num_params == 3 ? MakeFunction<3>(it.cost.get()) : MakeFunction<5>(it.cost.get()));
   return it;
 }
@@ -558,27 +266,6 @@ const char* MotionSourceName(MotionSource source) {
   return "lidar2d";
 }
 
-double ChiSquareUpperTail(double x, int dof) {
-  return x <= 0 ? 1.0 : Eigen::numext::igammac(0.5 * dof, 0.5 * x);
-}
-
-EstimateDifference CompareEstimates(const Eigen::VectorXd& delta, const Eigen::MatrixXd& sum,
-                                    const std::vector<std::string>& names) {
-  EstimateDifference d;
-  d.dof = static_cast<int>(delta.size());
-  d.d2 = delta.dot(sum.ldlt().solve(delta));
-  if (!std::isfinite(d.d2) || d.d2 < 0) d.d2 = INFINITY;
-  d.p = ChiSquareUpperTail(d.d2, d.dof);
-  for (int i = 0; i < d.dof; ++i) {
-    const double sigmas = std::abs(delta[i]) / std::sqrt(sum(i, i));
-    if (sigmas > d.largest_sigmas || d.largest.empty()) {
-      d.largest = names[i];
-      d.largest_sigmas = sigmas;
-    }
-  }
-  return d;
-}
-
 namespace {
 
 // A result's estimates in the order of its `estimated_names` (and `covariance`).
@@ -624,100 +311,68 @@ std::optional<HalvesAgreement> CompareHalves(const RobotDescription& robot, cons
   return a;
 }
 
-}  // namespace
-
-CalibrationResult Calibrate(const RobotDescription& robot, const WheelTrack& wheels,
-                            const std::vector<SensorMotion>& motions, MotionSource source,
-                            const CalibrationOptions& options, const std::string& origin) {
-  CalibrationResult result;
-  result.drive = robot.drive;
-  result.source = source;
-  result.param_names = ParamNames(robot.drive);
-  const int num_params = static_cast<int>(result.param_names.size());
-  const std::string mount_name = MotionSourceName(source);
-
-  // Intervals the encoders cover (with room for the time offset), in stamp order.
-  const double margin_us = options.estimate_time_offset ? options.max_time_offset_s * 1e6 : 0.0;
-  const std::vector<const SensorMotion*> usable = UsableMotions(wheels, motions, margin_us, &result.residual);
-  const std::size_t num_fit =
-      static_cast<std::size_t>(std::floor(usable.size() * std::clamp(options.fit_fraction, 0.0, 1.0)));
-  if (num_fit < 20) {
-    throw InputError(origin, "sensor motions",
-                     "only " + std::to_string(num_fit) + " usable intervals with encoder data (" +
-                         std::to_string(motions.size()) + " motions, " +
-                         std::to_string(result.residual.degenerate) + " degenerate, " +
-                         std::to_string(result.residual.invalid) +
-                         " failed or outside the encoder data); at least 20 are needed");
-  }
-
-  std::vector<Interval> intervals;
-  std::vector<MotionInterval> closed_form_input;
-  for (std::size_t k = 0; k < usable.size(); ++k) {
-    const SensorMotion& m = *usable[k];
-    intervals.push_back(MakeInterval(robot.drive, num_params, wheels, m, margin_us, k >= num_fit));
-    if (k < num_fit) closed_form_input.push_back({wheels.Increments(m.utime_start, m.utime_end), m.delta});
-  }
-
-  // 1. Closed-form first estimate; the nominal values where it is not available or implausible.
-  const State nominal = StateOf(robot, source);
+// 1. The closed-form first estimate (kept in `result`): the refinement's start, or the nominal
+// values where it is not available or implausible.
+State FirstEstimate(const RobotDescription& robot, const State& nominal,
+                    const std::vector<MotionInterval>& input, CalibrationResult* result) {
+  const std::vector<std::string>& names = result->param_names;
+  const int num_params = static_cast<int>(names.size());
   State state = nominal;
-  const ClosedFormEstimate cf = ClosedFormCalibration(robot.drive, robot.params, closed_form_input);
-  if (cf.ok) {
-    for (int i = 0; i < num_params; ++i) result.closed_form[result.param_names[i]] = cf.params.at(result.param_names[i]);
-    result.closed_form["mount_x"] = cf.mount.x;
-    result.closed_form["mount_y"] = cf.mount.y;
-    result.closed_form["mount_yaw"] = cf.mount.theta;
-    // Plausible: every length within a factor of two of nominal, same sign.
-    bool plausible = true;
-    for (int i = 0; i < num_params; ++i) {
-      const std::string& name = result.param_names[i];
-      const double v = cf.params.at(name), n = nominal.params[i];
-      if (name.find("offset") == std::string::npos && std::abs(n) > 1e-6)
-        plausible = plausible && v / n > 0.5 && v / n < 2.0;
-    }
-    if (plausible) {
-      for (int i = 0; i < num_params; ++i) state.params[i] = cf.params.at(result.param_names[i]);
-      state.mount[0] = cf.mount.x;
-      state.mount[1] = cf.mount.y;
-      state.mount[2] = cf.mount.theta;
-    } else {
-      result.closed_form_note = "closed form far from nominal; refinement started from nominal";
-    }
-  } else {
-    result.closed_form_note = "closed form not available: " + cf.problem;
+  const ClosedFormEstimate cf = ClosedFormCalibration(robot.drive, robot.params, input);
+  if (!cf.ok) {
+    result->closed_form_note = "closed form not available: " + cf.problem;
+    return state;
   }
+  for (int i = 0; i < num_params; ++i) result->closed_form[names[i]] = cf.params.at(names[i]);
+  result->closed_form["mount_x"] = cf.mount.x;
+  result->closed_form["mount_y"] = cf.mount.y;
+  result->closed_form["mount_yaw"] = cf.mount.theta;
+  // Plausible: every length within a factor of two of nominal, same sign.
+  bool plausible = true;
+  for (int i = 0; i < num_params; ++i) {
+    const double v = cf.params.at(names[i]), n = nominal.params[i];
+    if (names[i].find("offset") == std::string::npos && std::abs(n) > 1e-6)
+      plausible = plausible && v / n > 0.5 && v / n < 2.0;
+  }
+  if (!plausible) {
+    result->closed_form_note = "closed form far from nominal; refinement started from nominal";
+    return state;
+  }
+  for (int i = 0; i < num_params; ++i) state.params[i] = cf.params.at(names[i]);
+  state.mount[0] = cf.mount.x;
+  state.mount[1] = cf.mount.y;
+  state.mount[2] = cf.mount.theta;
+  return state;
+}
 
-  // 2. Robust fit with a scale from the residuals at the start, then outliers, then the
-  //    plain maximum-likelihood refit on the inliers.
+// 2. Robust fit with a scale from the residuals at the start, then outliers, then the plain
+// maximum-likelihood refit on the inliers. Returns the residuals' robust scale.
+double RobustFit(std::vector<Interval>& intervals, int num_params, const CalibrationOptions& options,
+                 State* state) {
   auto robust_scale = [&]() {
     std::vector<double> chi2;
     for (const Interval& it : intervals)
-      if (!it.heldout && !it.outlier) chi2.push_back(Chi2(it, state));
-    return std::sqrt(std::max(Median(chi2) / kChi2Median3, 1e-12));
+      if (!it.heldout && !it.outlier) chi2.push_back(Chi2(it, *state));
+    return std::sqrt(RobustScale2(std::move(chi2)));
   };
-  Solve(intervals, &state, num_params, robust_scale(), true, options.estimate_time_offset,
+  Solve(intervals, state, num_params, robust_scale(), true, options.estimate_time_offset,
         options.max_time_offset_s);
   double scale = 1.0;
   for (int round = 0; round < 2; ++round) {
     scale = robust_scale();
     for (Interval& it : intervals) {
-      if (!it.heldout) it.outlier = Chi2(it, state) / (scale * scale) > options.outlier_chi2;
+      if (!it.heldout) it.outlier = IsOutlier(Chi2(it, *state), scale * scale, options.outlier_chi2);
     }
-    Solve(intervals, &state, num_params, scale, false, options.estimate_time_offset,
+    Solve(intervals, state, num_params, scale, false, options.estimate_time_offset,
           options.max_time_offset_s);
   }
+  return scale;
+}
 
-  // 3. Covariance: the sandwich H^-1 M H^-1 with H the information of the whitened Jacobians
-  //    and M the spread of the per-interval scores g_k = J_k^T r_k, including the covariance of
-  //    neighbouring intervals (ScoreSpread). Neighbours share an observation (a scan, a pose),
-  //    so their errors are correlated: a shared pose's noise cancels in the sum of two motions,
-  //    and treating them as independent would make every sigma wrong.
-  const int dim = num_params + 3 + (options.estimate_time_offset ? 1 : 0);
-  Eigen::MatrixXd information = Eigen::MatrixXd::Zero(dim, dim);
-  std::vector<Eigen::MatrixXd> inlier_jacobians;  // whitened
-  std::vector<Eigen::Vector3d> residuals;
-  std::vector<bool> follows_previous;  // the interval starts where the previous one ended
-  int64_t previous_end = -1;
+// Every interval's residual at `state` (result->intervals) and their summary over the inliers
+// (result->residual), chi-squares in the robust `scale`; `dim` values were fitted.
+void SummarizeResiduals(const std::vector<Interval>& intervals, const State& state, double scale,
+                        std::size_t num_fit, int dim, CalibrationResult* result) {
   double chi2_sum = 0.0;
   int inliers = 0;
   Eigen::Vector3d sum_e2 = Eigen::Vector3d::Zero();
@@ -729,7 +384,37 @@ CalibrationResult Calibrate(const RobotDescription& robot, const WheelTrack& whe
     r.chi2 = Chi2(it, state) / (scale * scale);
     r.outlier = it.outlier;
     r.heldout = it.heldout;
-    result.intervals.push_back(r);
+    result->intervals.push_back(r);
+    if (it.heldout || it.outlier) continue;
+    chi2_sum += r.chi2;
+    sum_e2 += r.error.cwiseAbs2();
+    ++inliers;
+  }
+  result->residual.intervals = static_cast<int>(num_fit);
+  for (const Interval& it : intervals) result->residual.outliers += (!it.heldout && it.outlier) ? 1 : 0;
+  result->residual.rms_x = std::sqrt(sum_e2[0] / inliers);
+  result->residual.rms_y = std::sqrt(sum_e2[1] / inliers);
+  result->residual.rms_yaw = std::sqrt(sum_e2[2] / inliers);
+  const double variance_factor = chi2_sum / std::max(1, 3 * inliers - dim);
+  result->residual.variance_factor = variance_factor * scale * scale;
+}
+
+// The inliers' whitened Jacobians J_k (columns: drive parameters, mount, the time offset when
+// estimated) and residuals r_k at `state`, both divided by the robust `scale`.
+struct Scores {
+  Eigen::MatrixXd information;  // H = sum J_k' J_k
+  std::vector<Eigen::MatrixXd> jacobians;
+  std::vector<Eigen::Vector3d> residuals;
+  std::vector<bool> follows_previous;  // the interval starts where the previous one ended
+};
+
+Scores InlierScores(const std::vector<Interval>& intervals, const State& state, int num_params,
+                    bool with_offset, double scale) {
+  const int dim = num_params + 3 + (with_offset ? 1 : 0);
+  Scores s;
+  s.information = Eigen::MatrixXd::Zero(dim, dim);
+  int64_t previous_end = -1;
+  for (const Interval& it : intervals) {
     if (it.heldout || it.outlier) continue;
     double residual[3];
     std::vector<double> jp_compact(3 * num_params);  // row-major 3 x num_params
@@ -742,39 +427,37 @@ CalibrationResult Calibrate(const RobotDescription& robot, const WheelTrack& whe
     for (int row = 0; row < 3; ++row) {
       for (int c = 0; c < num_params; ++c) J(row, c) = jp_compact[row * num_params + c];
       for (int c = 0; c < 3; ++c) J(row, num_params + c) = jm(row, c);
-      if (options.estimate_time_offset) J(row, num_params + 3) = jo(row);
+      if (with_offset) J(row, num_params + 3) = jo(row);
     }
     J /= scale;
-    information += J.transpose() * J;
-    follows_previous.push_back(!residuals.empty() && previous_end == it.motion->utime_start);
-    inlier_jacobians.push_back(J);
-    residuals.push_back(Eigen::Vector3d(residual[0], residual[1], residual[2]) / scale);
+    s.information += J.transpose() * J;
+    s.follows_previous.push_back(!s.residuals.empty() && previous_end == it.motion->utime_start);
+    s.jacobians.push_back(J);
+    s.residuals.push_back(Eigen::Vector3d(residual[0], residual[1], residual[2]) / scale);
     previous_end = it.motion->utime_end;
-    chi2_sum += r.chi2;
-    sum_e2 += r.error.cwiseAbs2();
-    ++inliers;
   }
-  result.residual.intervals = static_cast<int>(num_fit);
-  for (const Interval& it : intervals) result.residual.outliers += (!it.heldout && it.outlier) ? 1 : 0;
-  result.residual.rms_x = std::sqrt(sum_e2[0] / inliers);
-  result.residual.rms_y = std::sqrt(sum_e2[1] / inliers);
-  result.residual.rms_yaw = std::sqrt(sum_e2[2] / inliers);
-  const double variance_factor = chi2_sum / std::max(1, 3 * inliers - dim);
-  result.residual.variance_factor = variance_factor * scale * scale;
+  return s;
+}
+
+// 3. Covariance: the sandwich H^-1 M H^-1 with H the information of the whitened Jacobians and
+// M the spread of the per-interval scores g_k = J_k^T r_k, including the covariance of
+// neighbouring intervals (ScoreSpread). Neighbours share an observation (a scan, a pose), so
+// their errors are correlated: a shared pose's noise cancels in the sum of two motions, and
+// treating them as independent would make every sigma wrong. Sets result->covariance and
+// result->condition; returns the sigmas, infinite for what the data do not determine.
+std::vector<double> Covariance(const Scores& scores, CalibrationResult* result) {
+  const Eigen::MatrixXd& information = scores.information;
+  const int dim = static_cast<int>(information.rows());
+  const int inliers = static_cast<int>(scores.residuals.size());
   // The sample spread is a little small by the parameters fitted; the usual dof correction.
-  const Eigen::MatrixXd spread =
-      ScoreSpread(inlier_jacobians, residuals, follows_previous) * (double(3 * inliers) / std::max(1, 3 * inliers - dim));
-
-  for (int i = 0; i < num_params; ++i) result.estimated_names.push_back(result.param_names[i]);
-  for (const char* axis : {".x", ".y", ".yaw"}) result.estimated_names.push_back(mount_name + axis);
-  if (options.estimate_time_offset) result.estimated_names.push_back("time_offset");
-
+  const Eigen::MatrixXd spread = ScoreSpread(scores.jacobians, scores.residuals, scores.follows_previous) *
+                                 (double(3 * inliers) / std::max(1, 3 * inliers - dim));
   // Observability: eigen-analysis of the correlation-normalised information.
   const Eigen::VectorXd d = information.diagonal().cwiseMax(1e-300).cwiseSqrt();
   const Eigen::MatrixXd correlation = d.asDiagonal().inverse() * information * d.asDiagonal().inverse();
   Eigen::SelfAdjointEigenSolver<Eigen::MatrixXd> eig(correlation);
   const double lmin = std::max(eig.eigenvalues()[0], 0.0), lmax = eig.eigenvalues()[dim - 1];
-  result.condition = lmin > 0 ? lmax / lmin : INFINITY;
+  result->condition = lmin > 0 ? lmax / lmin : INFINITY;
   // Pseudo-inverse restricted to the determined directions, so a singular direction shows as
   // an unbounded sigma rather than a crash.
   Eigen::VectorXd inv = Eigen::VectorXd::Zero(dim);
@@ -784,71 +467,117 @@ CalibrationResult Calibrate(const RobotDescription& robot, const WheelTrack& whe
       eig.eigenvectors() * inv.asDiagonal() * eig.eigenvectors().transpose();
   const Eigen::MatrixXd information_inverse =
       d.asDiagonal().inverse() * correlation_inverse * d.asDiagonal().inverse();
-  result.covariance = information_inverse * spread * information_inverse;
+  result->covariance = information_inverse * spread * information_inverse;
   std::vector<double> sigma(dim);
   for (int i = 0; i < dim; ++i) {
-    sigma[i] = std::sqrt(std::max(result.covariance(i, i), 0.0));
+    sigma[i] = std::sqrt(std::max(result->covariance(i, i), 0.0));
     for (int e = 0; e < dim; ++e) {  // a parameter in a singular direction is not determined
       if (inv[e] == 0.0 && std::abs(eig.eigenvectors()(i, e)) > 0.3) sigma[i] = INFINITY;
     }
     if (d[i] <= 1e-150) sigma[i] = INFINITY;
   }
+  return sigma;
+}
 
+// The estimates of `state` with their `sigma` and the `nominal` values, named in the order of
+// the covariance (result->estimated_names; the mount after the sensor `source`).
+void SetEstimates(const State& state, const State& nominal, const std::vector<double>& sigma,
+                  MotionSource source, bool with_offset, CalibrationResult* result) {
+  const int num_params = static_cast<int>(result->param_names.size());
+  for (int i = 0; i < num_params; ++i) result->estimated_names.push_back(result->param_names[i]);
+  for (const char* axis : {".x", ".y", ".yaw"})
+    result->estimated_names.push_back(std::string(MotionSourceName(source)) + axis);
+  if (with_offset) result->estimated_names.push_back("time_offset");
   auto estimate = [&](int i, double value, double nominal_value) {
     return Estimate{value, sigma[i], nominal_value};
   };
   for (int i = 0; i < num_params; ++i)
-    result.params[result.param_names[i]] = estimate(i, state.params[i], nominal.params[i]);
-  result.mount_x = estimate(num_params, state.mount[0], nominal.mount[0]);
-  result.mount_y = estimate(num_params + 1, state.mount[1], nominal.mount[1]);
-  result.mount_yaw = estimate(num_params + 2, WrapAngle(state.mount[2]), nominal.mount[2]);
-  if (options.estimate_time_offset) result.time_offset = estimate(num_params + 3, state.offset[0], 0.0);
+    result->params[result->param_names[i]] = estimate(i, state.params[i], nominal.params[i]);
+  result->mount_x = estimate(num_params, state.mount[0], nominal.mount[0]);
+  result->mount_y = estimate(num_params + 1, state.mount[1], nominal.mount[1]);
+  result->mount_yaw = estimate(num_params + 2, WrapAngle(state.mount[2]), nominal.mount[2]);
+  if (with_offset) result->time_offset = estimate(num_params + 3, state.offset[0], 0.0);
+}
 
-  // Refuse what the data cannot determine; list what they determine poorly.
+// Refuses what the data cannot determine (UnobservableError naming it and the motion to add,
+// when `check`); lists what they determine poorly in result->weak, the refused ones last.
+void RefuseUndetermined(DriveType drive, const State& nominal, const std::vector<double>& sigma,
+                        bool check, const std::string& origin, CalibrationResult* result) {
+  const int num_params = static_cast<int>(result->param_names.size());
   std::vector<std::string> refused, remedies;
   const double nominal_values[] = {nominal.params[0], nominal.params[1], nominal.params[2],
                                    nominal.params[3], nominal.params[4]};
-  for (int i = 0; i < dim; ++i) {
-    const std::string& name = result.estimated_names[i];
-    const Requirement req = RequirementFor(robot.drive, name, i < num_params ? nominal_values[i] : 0.0);
+  for (std::size_t i = 0; i < sigma.size(); ++i) {
+    const std::string& name = result->estimated_names[i];
+    const Requirement req = RequirementFor(drive, name, int(i) < num_params ? nominal_values[i] : 0.0);
     if (!(sigma[i] <= req.refuse)) {
       refused.push_back(name);
       if (std::find(remedies.begin(), remedies.end(), req.remedy) == remedies.end())
         remedies.push_back(req.remedy);
     } else if (sigma[i] > 0.1 * req.refuse) {
-      result.weak.push_back(name);
+      result->weak.push_back(name);
     }
   }
-  if (options.check_observability && !refused.empty()) {
+  if (check && !refused.empty()) {
     std::ostringstream what, remedy;
     what << origin << ": the recording cannot determine ";
     for (std::size_t i = 0; i < refused.size(); ++i) what << (i ? ", " : "") << refused[i];
     for (std::size_t i = 0; i < remedies.size(); ++i) remedy << (i ? "; " : "") << remedies[i];
     throw UnobservableError(what.str(), remedy.str());
   }
-  result.weak.insert(result.weak.end(), refused.begin(), refused.end());
+  result->weak.insert(result->weak.end(), refused.begin(), refused.end());
+}
 
-  // Held-out comparison of the nominal and the calibrated model.
+}  // namespace
+
+CalibrationResult Calibrate(const RobotDescription& robot, const WheelTrack& wheels,
+                            const std::vector<SensorMotion>& motions, MotionSource source,
+                            const CalibrationOptions& options, const std::string& origin) {
+  CalibrationResult result;
+  result.drive = robot.drive;
+  result.source = source;
+  result.param_names = ParamNames(robot.drive);
+  const int num_params = static_cast<int>(result.param_names.size());
+  const bool with_offset = options.estimate_time_offset;
+
+  // Intervals the encoders cover (with room for the time offset), in stamp order.
+  const double margin_us = with_offset ? options.max_time_offset_s * 1e6 : 0.0;
+  const std::vector<const SensorMotion*> usable = UsableMotions(wheels, motions, margin_us, &result.residual);
+  const std::size_t num_fit =
+      static_cast<std::size_t>(std::floor(usable.size() * std::clamp(options.fit_fraction, 0.0, 1.0)));
+  if (num_fit < 20) {
+    throw InputError(origin, "sensor motions",
+                     "only " + std::to_string(num_fit) + " usable intervals with encoder data (" +
+                         std::to_string(motions.size()) + " motions, " +
+                         std::to_string(result.residual.degenerate) + " degenerate, " +
+                         std::to_string(result.residual.invalid) +
+                         " failed or outside the encoder data); at least 20 are needed");
+  }
+
+  const EncoderTrack track = MakeEncoderTrack(robot.drive, wheels);
+  std::vector<Interval> intervals;
+  std::vector<MotionInterval> closed_form_input;
+  for (std::size_t k = 0; k < usable.size(); ++k) {
+    const SensorMotion& m = *usable[k];
+    intervals.push_back(MakeInterval(track, num_params, m, margin_us, k >= num_fit));
+    if (k < num_fit) closed_form_input.push_back({wheels.Increments(m.utime_start, m.utime_end), m.delta});
+  }
+
+  const State nominal = StateOf(robot, source);
+  State state = FirstEstimate(robot, nominal, closed_form_input, &result);
+  const double scale = RobustFit(intervals, num_params, options, &state);
+  const int dim = num_params + 3 + (with_offset ? 1 : 0);
+  SummarizeResiduals(intervals, state, scale, num_fit, dim, &result);
+  const std::vector<double> sigma = Covariance(InlierScores(intervals, state, num_params, with_offset, scale), &result);
+  SetEstimates(state, nominal, sigma, source, with_offset, &result);
+  RefuseUndetermined(robot.drive, nominal, sigma, options.check_observability, origin, &result);
+
+  // 4. Held-out comparison of the nominal and the calibrated model.
   if (num_fit < intervals.size()) {
-    HeldoutComparison h;
+    HeldoutComparison h = CompareHeldout(HeldoutSteps(intervals, nominal), HeldoutSteps(intervals, state),
+                                         CompareMotion(robot.drive, wheels, usable, num_fit),
+                                         options.heldout_windows);
     h.intervals = static_cast<int>(intervals.size() - num_fit);
-    const std::vector<OdometryStep> nominal_steps = HeldoutSteps(intervals, nominal);
-    h.window_m = PathWindowLength(nominal_steps, options.heldout_windows);
-    h.nominal = OdometryErrorOverPath(nominal_steps, h.window_m);
-    h.calibrated = OdometryErrorOverPath(HeldoutSteps(intervals, state), h.window_m);
-    h.paired = ComparePaired(h.nominal, h.calibrated);
-    h.coverage = CompareMotion(robot.drive, wheels, intervals);
-    OdometryError inside[2];
-    for (std::size_t w = 0; w < h.nominal.per_window.size(); ++w) {
-      const WindowError& a = h.nominal.per_window[w];
-      const bool extrapolated = std::any_of(
-          h.coverage.outside_spans.begin(), h.coverage.outside_spans.end(),
-          [&](const auto& span) { return span.first < a.utime_end && span.second > a.utime_start; });
-      if (extrapolated) continue;
-      inside[0].per_window.push_back(a);
-      inside[1].per_window.push_back(h.calibrated.per_window[w]);
-    }
-    h.paired_within_fit_range = ComparePaired(inside[0], inside[1]);
     std::vector<SensorMotion> heldout_motions;
     for (std::size_t k = num_fit; k < usable.size(); ++k) heldout_motions.push_back(*usable[k]);
     h.halves = CompareHalves(robot, wheels, heldout_motions, source, options, origin, result);
@@ -862,9 +591,10 @@ OdometryError EvaluateOdometry(const RobotDescription& robot, MotionSource sourc
                                double window_s) {
   ResidualSummary ignored;
   const int num_params = static_cast<int>(ParamNames(robot.drive).size());
+  const EncoderTrack track = MakeEncoderTrack(robot.drive, wheels);
   std::vector<Interval> intervals;
   for (const SensorMotion* m : UsableMotions(wheels, motions, 0.0, &ignored))
-    intervals.push_back(MakeInterval(robot.drive, num_params, wheels, *m, 0.0, true /* heldout */));
+    intervals.push_back(MakeInterval(track, num_params, *m, 0.0, true /* heldout */));
   return HeldoutOdometry(intervals, StateOf(robot, source), window_s, true /* keep_partial */);
 }
 

@@ -15,6 +15,7 @@
 #include "calib/calibrate/result_files.h"
 #include "calib/calibrate/solve_log.h"
 #include "calib/core/errors.h"
+#include "calib/core/statistics.h"
 #include "calib/io/atomic_file.h"
 #include "calib/io/messages.h"
 #include "core/yaml_checked.h"

@@ -5,6 +5,9 @@
 #include <nlohmann/json.hpp>
 #include <yaml-cpp/yaml.h>
 
+#include "calib/calibrate/calibration.h"
+#include "calib/calibrate/heldout.h"
+#include "calib/core/statistics.h"
 
 namespace calib {
 namespace {
@@ -80,8 +83,8 @@ std::string CalibrationResultJson(const CalibrationResult& r) {
                             {"calibrated_better", p.second_better},
                             {"ties", p.ties},
                             {"sign_test_p", p.sign_test_p},
-                            {"mean_difference_m", p.mean_difference_m},
-                            {"difference_sem_m", p.difference_sem_m}};
+                            {"mean_difference_m", p.mean_difference},
+                            {"difference_sem_m", p.difference_sem}};
     };
     j["heldout"]["paired"] = paired(r.heldout->paired);
     j["heldout"]["paired_within_fit_range"] = paired(r.heldout->paired_within_fit_range);

@@ -6,13 +6,17 @@
 #include <memory>
 #include <numeric>
 #include <sstream>
+#include <utility>
 
 #include <Eigen/Dense>
 #include <ceres/ceres.h>
 
+#include "calib/calibrate/heldout.h"
+#include "calib/calibrate/interval_model.h"
 #include "calib/calibrate/recalibration.h"
 #include "calib/calibrate/solve_log.h"
 #include "calib/core/errors.h"
+#include "calib/core/statistics.h"
 #include "calib/diagnose/selection.h"
 #include "calib/io/messages.h"
 #include "calib/io/recording.h"
@@ -24,31 +28,18 @@ namespace calib {
 namespace diag {
 
 Track MakeTrack(const RobotDescription& robot, const WheelTrack& wheels) {
-  Track tr;
-  tr.drive = robot.drive;
+  Track tr(MakeEncoderTrack(robot.drive, wheels));
   const auto& roles = WheelRoles(robot.drive);
-  tr.wheels = static_cast<int>(roles.size());
   const auto& names = ParamNames(robot.drive);
   for (int w = 0; w < tr.wheels; ++w) {
     tr.steered[w] = robot.drive != DriveType::kDifferential;
     tr.radius_index[w] = static_cast<int>(
         std::find(names.begin(), names.end(), RadiusParamName(roles[w])) - names.begin());
   }
-  const auto& samples = wheels.samples();
-  const std::size_t n = samples.size();
-  tr.utime.resize(n);
-  tr.pos.assign(n, {0, 0});
-  tr.steer.assign(n, {0, 0});
+  const std::size_t n = tr.utime.size();
   tr.speed.assign(n, {0, 0});
   tr.steer_sign.assign(n, {0, 0});
   tr.travel_sign.assign(n, 1.0);
-  for (std::size_t i = 0; i < n; ++i) {
-    tr.utime[i] = samples[i].utime;
-    for (int w = 0; w < tr.wheels; ++w) {
-      tr.pos[i][w] = samples[i].position[w];
-      tr.steer[i][w] = samples[i].steer[w];
-    }
-  }
   if (n < 3) return tr;
   // Speeds by central differences over about +-50 ms: below that, tick quantisation dominates.
   const double dt = (tr.utime.back() - tr.utime.front()) * 1e-6 / double(n - 1);
@@ -123,7 +114,6 @@ namespace {
 using namespace diag;
 
 constexpr double kOutlierChi2 = 50.0;  // 3 dof, p ~ 1e-10 at the robust scale: failed matches only
-constexpr double kChi2Median3 = 2.366;
 constexpr double kHeldoutZ = 1.645;  // one-sided 5 % on the held-out blocks
 constexpr double kDriftP = 0.01;     // one-sided level of the held-out drift confirmation
 
@@ -172,13 +162,6 @@ double HeldoutGain(const Fit& before, const Fit& after) {
 // Correlation of the estimates `a` and `b` of a covariance.
 double Correlation(const Eigen::MatrixXd& cov, int a, int b) {
   return cov(a, b) / std::sqrt(std::max(cov(a, a) * cov(b, b), 1e-300));
-}
-
-Eigen::Matrix3d SqrtInformation(const Eigen::Matrix3d& covariance) {
-  Eigen::LLT<Eigen::Matrix3d> llt(covariance.inverse());
-  if (!covariance.allFinite() || llt.info() != Eigen::Success || !llt.matrixU().toDenseMatrix().allFinite())
-    return Eigen::Vector3d(1.0 / 0.01, 1.0 / 0.01, 1.0 / 0.005).asDiagonal();
-  return llt.matrixU();
 }
 
 Eigen::Vector3d ErrorOf(const Interval& it, const Model& m) {
@@ -1001,9 +984,8 @@ void Diagnoser::Gate(const Model& m) {
   for (Interval& it : intervals_) it.outlier = false;
   for (const Interval& it : intervals_)
     if (!it.heldout) chi2.push_back(Chi2Of(it, m));
-  std::nth_element(chi2.begin(), chi2.begin() + chi2.size() / 2, chi2.end());
-  const double scale2 = std::max(chi2[chi2.size() / 2] / kChi2Median3, 1e-12);
-  for (Interval& it : intervals_) it.outlier = Chi2Of(it, m) / scale2 > kOutlierChi2;
+  const double scale2 = RobustScale2(std::move(chi2));
+  for (Interval& it : intervals_) it.outlier = IsOutlier(Chi2Of(it, m), scale2, kOutlierChi2);
 }
 
 DiagnoseReport Diagnoser::Select(const Model& start, const CalibrationResult& cal) {

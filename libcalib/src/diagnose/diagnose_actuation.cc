@@ -12,6 +12,7 @@
 #include <sstream>
 
 #include "calib/core/kinematics.h"
+#include "calib/core/statistics.h"
 #include "diagnose/diagnose_internal.h"
 #include "diagnose/diagnose_model.h"
 

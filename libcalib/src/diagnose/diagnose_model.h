@@ -1,19 +1,19 @@
 #pragma once
-// The odometry model of the diagnosis: the drive kinematics of
-// kinematics_generic.h plus the terms of the effects of spec/effects.md, each
-// zero when its parameter is zero, integrated over one sensor interval (for
-// Ceres autodiff). Internal to libcalib.
+// The odometry model of the diagnosis: the interval model of calibrate/interval_model.h (its
+// frames, residual and maths are written there) with the terms of the effects of
+// spec/effects.md, each zero when its parameter is zero. Internal to libcalib.
 
 #include <algorithm>
 #include <array>
 #include <cmath>
 #include <cstdint>
+#include <utility>
 #include <vector>
 
 #include <Eigen/Core>
-#include <ceres/jet.h>
 
 #include "calib/calibrate/calibration.h"
+#include "calib/calibrate/interval_model.h"
 #include "calib/core/kinematics_generic.h"
 #include "calib/core/robot.h"
 #include "calib/core/wheel_track.h"
@@ -38,51 +38,40 @@ constexpr double kHistoryS = 2.0;   // steering history kept before an interval 
 constexpr double kMaxOffsetS = kMaxTimeOffsetS;  // calibration.h
 
 // The encoder track with what the effect terms need per sample, in role order.
-struct Track {
-  DriveType drive = DriveType::kDifferential;
-  int wheels = 0;
+struct Track : EncoderTrack {
+  Track() = default;
+  explicit Track(EncoderTrack encoders) : EncoderTrack(std::move(encoders)) {}
+
   std::array<bool, 2> steered{false, false};
   std::array<int, 2> radius_index{0, 0};  // into ParamNames(drive)
-  std::vector<int64_t> utime;
-  std::vector<std::array<double, 2>> pos, steer, speed;  // rad, rad, rad/s (smoothed)
-  std::vector<std::array<double, 2>> steer_sign;          // last steering motion (+1/-1, 0 unknown)
-  std::vector<double> travel_sign;                        // last travel direction (+1/-1)
+  std::vector<std::array<double, 2>> speed;       // rad/s (smoothed)
+  std::vector<std::array<double, 2>> steer_sign;  // last steering motion (+1/-1, 0 unknown)
+  std::vector<double> travel_sign;                // last travel direction (+1/-1)
   int smooth_k = 1;  // speed[i] = (pos[i+k] - pos[i-k]) / time between them
 };
 
 Track MakeTrack(const RobotDescription& robot, const WheelTrack& wheels);
 
-inline double Scalar(double x) { return x; }
-template <typename T, int N>
-double Scalar(const ceres::Jet<T, N>& x) {
-  return x.a;
-}
-
-// One interval: measured sensor motion minus the model's prediction, whitened.
-class IntervalModel {
+// One interval (IntervalCost: measured sensor motion minus the prediction, whitened), `extra`
+// the effect parameters (Beta).
+class IntervalModel : public IntervalCost<IntervalModel> {
  public:
   IntervalModel(const Track* track, std::size_t first, std::size_t last, int64_t utime_start,
                 double duration, const Eigen::Vector3d& measured, const Eigen::Matrix3d& sqrt_information,
                 const Eigen::Vector3d& distortion, double deskew_lead = 0.0, const Pose2& deskew_head = {},
                 const Pose2& deskew_tail = {})
-      : tr_(track), first_(first), last_(last), t0_(utime_start), duration_(duration),
-        measured_(measured), sqrt_information_(sqrt_information), distortion_(distortion),
-        lead_(deskew_lead), deskew_head_(deskew_head), deskew_tail_(deskew_tail) {}
+      : IntervalCost(track, first, last, utime_start, duration, measured, sqrt_information), tr_(track),
+        distortion_(distortion), lead_(deskew_lead), deskew_head_(deskew_head), deskew_tail_(deskew_tail) {}
 
+  // The measured motion corrected to first order for scan distortion.
   template <typename T>
-  bool operator()(const T* params, const T* mount, const T* beta, T* residual) const {
-    T e[3];
-    Error(params, mount, beta, e);
-    for (int i = 0; i < 3; ++i) {
-      residual[i] = T(0.0);
-      for (int j = 0; j < 3; ++j) residual[i] += sqrt_information_(i, j) * e[j];
-    }
-    return true;
+  void Measured(const T* beta, T* measured) const {
+    for (int k = 0; k < 3; ++k) measured[k] = T(measured_[k]) + beta[kDistortion] * distortion_[k];
   }
 
-  // Measured (corrected to first order for scan distortion) minus predicted (x, y, theta).
+  // The body motion with the effect terms.
   template <typename T>
-  void Error(const T* params, const T* mount, const T* beta, T* e) const {
+  generic::Pose<T> BodyMotion(const T* params, const T* beta) const {
     using P = generic::Pose<T>;
     using std::cos;
     using std::exp;
@@ -181,27 +170,10 @@ class IntervalModel {
       const P tail{T(deskew_tail_.x), T(deskew_tail_.y), T(deskew_tail_.theta)};
       q = generic::Compose(generic::Compose(head, q), generic::Inverse(tail));
     }
-    const P l{mount[0], mount[1], mount[2]};
-    const P z = generic::Compose(generic::Compose(generic::Inverse(l), q), l);
-    T measured[3];
-    for (int k = 0; k < 3; ++k) measured[k] = T(measured_[k]) + beta[kDistortion] * distortion_[k];
-    e[0] = measured[0] - z.x;
-    e[1] = measured[1] - z.y;
-    const double turns = std::round((Scalar(measured[2]) - Scalar(z.theta)) / (2.0 * M_PI));
-    e[2] = measured[2] - z.theta - T(turns * 2.0 * M_PI);
+    return q;
   }
-
-  std::size_t first() const { return first_; }
-  std::size_t last() const { return last_; }
 
  private:
-  double Time(std::size_t i) const { return (tr_->utime[i] - t0_) * 1e-6; }
-  // Segment [i, i+1] of the samples holding t (clamped to the interval's samples).
-  std::size_t Segment(double t) const {
-    std::size_t i = first_;
-    while (i + 2 <= last_ && Time(i + 1) <= t) ++i;
-    return i;
-  }
   double Slope(std::size_t i, int w) const {
     return (tr_->steer[i + 1][w] - tr_->steer[i][w]) / (Time(i + 1) - Time(i));
   }
@@ -219,19 +191,13 @@ class IntervalModel {
 
   template <typename T>
   void Interp(std::size_t i, const T& t, int w, T* pos, T* steer, T* speed) const {
-    const T f = (t - Time(i)) / (Time(i + 1) - Time(i));
-    const Track& tr = *tr_;
-    *pos = tr.pos[i][w] + f * (tr.pos[i + 1][w] - tr.pos[i][w]);
-    *steer = tr.steer[i][w] + f * (tr.steer[i + 1][w] - tr.steer[i][w]);
-    *speed = tr.speed[i][w] + f * (tr.speed[i + 1][w] - tr.speed[i][w]);
+    const T f = Fraction(i, t);
+    *pos = Lerp(tr_->pos, i, w, f);
+    *steer = Lerp(tr_->steer, i, w, f);
+    *speed = Lerp(tr_->speed, i, w, f);
   }
 
-  const Track* tr_;
-  std::size_t first_, last_;  // sample range [first, last] around the interval
-  int64_t t0_;
-  double duration_;
-  Eigen::Vector3d measured_;
-  Eigen::Matrix3d sqrt_information_;
+  const Track* tr_;             // the base's track, with the effect terms' per-sample data
   Eigen::Vector3d distortion_;  // d(measured)/d(scan period), per second of period
   double lead_;                 // s: the de-skewed scans' mean beam time after the stamp
   Pose2 deskew_head_, deskew_tail_;  // de-skew odometry over the lead after each stamp

@@ -6,6 +6,7 @@
 
 #include <nlohmann/json.hpp>
 
+#include "calib/calibrate/heldout.h"
 #include "calib/diagnose/diagnose.h"
 
 namespace calib {

@@ -32,6 +32,7 @@
 #include <Eigen/Core>
 
 #include "calib/calibrate/calibration.h"
+#include "calib/calibrate/heldout.h"
 #include "calib/core/drive_command.h"
 #include "calib/core/robot.h"
 #include "calib/core/sensor_motion.h"
@@ -124,7 +125,7 @@ struct FoundEffect {
   double heldout_rms_before = 0, heldout_rms_after = 0;
   double heldout_rms_all_before = 0, heldout_rms_all_after = 0;
   // Dead-reckoning drift over `drift_window_s` of consecutive held-out motion (the model
-  // chained against the measured motion chained, calibration.h OdometryErrorOverWindows),
+  // chained against the measured motion chained, heldout.h OdometryErrorOverWindows),
   // RMS of the translation or heading error per window. Per interval the noise is large
   // against a small effect; chained, the effect adds up and a scan's registration error
   // cancels. Actuation effects (compared with the encoders, not chained) leave it empty.
