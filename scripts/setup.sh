@@ -7,7 +7,7 @@ set -euo pipefail
 here=$(cd "$(dirname "$0")/.." && pwd)
 cd "$here"
 
-packages=(build-essential cmake pkg-config ccache git iproute2 util-linux procps
+packages=(build-essential cmake pkg-config ccache git iproute2 util-linux procps python3
   liblcm-dev liblcm-bin libglib2.0-dev libeigen3-dev libceres-dev libyaml-cpp-dev
   nlohmann-json3-dev libgtest-dev libncurses-dev zlib1g-dev libpcl-dev tmux supervisor)
 sudo=""

@@ -12,6 +12,7 @@
 #include "calib/core/drive_command.h"
 #include "calib/core/robot.h"
 #include "calib/core/sensor_motion.h"
+#include "calib/io/message_layout.h"
 
 namespace calib {
 
@@ -59,15 +60,25 @@ std::vector<uint8_t> Encode(const Message& message) {
   return bytes;
 }
 
-// Decodes bytes into a message; false if they are not a valid `Message`
-// (lcm-gen's decoders can throw on corrupt lengths, e.g. of a string).
+// Decodes bytes into a message; false if they are not a valid `Message`, and then
+// `why` (when given) says what is wrong. Every length is checked against the bytes
+// first (message_layout.h), so a corrupt one never reaches lcm-gen's allocation;
+// its decoders can also throw on corrupt lengths, e.g. of a string.
 template <typename Message>
-bool Decode(const void* data, int size, Message* message) {
-  try {
-    return message->decode(data, 0, size) == size;
-  } catch (const std::exception&) {
+bool Decode(const void* data, int size, Message* message, std::string* why = nullptr) {
+  if (size < 0) return false;
+  const std::string bad =
+      CheckEncodedLengths(Message::getTypeName(), static_cast<const uint8_t*>(data), static_cast<size_t>(size));
+  if (!bad.empty()) {
+    if (why) *why = bad;
     return false;
   }
+  try {
+    if (message->decode(data, 0, size) == size) return true;
+  } catch (const std::exception&) {
+  }
+  if (why) *why = "its bytes do not decode";
+  return false;
 }
 
 }  // namespace calib
