@@ -18,9 +18,10 @@
 #include "calib/core/robot.h"
 #include "calib/core/sensor_data.h"
 #include "calib/ground/ground.h"
-#include "calib/io/message_source.h"
 
 namespace calib {
+
+class MessageSource;  // calib/io/message_source.h
 
 // The state of a session after a cloud (what GROUND_ESTIMATE, ground_estimate_t,
 // carries): the estimate so far, or why there is none yet.
