@@ -14,14 +14,11 @@
 #include <string>
 #include <vector>
 
-#include "agvcal/laser_scan_t.hpp"
-#include "agvcal/wheel_state_t.hpp"
 #include "calib/core/errors.h"
+#include "calib/core/laser_scan.h"
 #include "calib/core/robot.h"
 #include "calib/core/wheel_track.h"
-#include "calib/io/messages.h"
-#include "calib/io/recording.h"
-#include "calib/match/laser_scan.h"
+#include "calib/io/message_source.h"
 #include "calib/match/scan_match.h"
 
 namespace {
@@ -63,23 +60,17 @@ int Run(int argc, char** argv) {
   std::vector<Event> order;
   std::vector<calib::WheelSample> wheels;
   std::vector<calib::LaserScan> scans;
-  calib::LogReader reader(log);
-  calib::LogEvent e;
-  const std::string scan_channel = robot.lidar2d ? robot.lidar2d->channel : calib::kScanChannel;
-  while (reader.Next(&e)) {
-    const int size = static_cast<int>(e.data.size());
-    if (e.channel == calib::kWheelsChannel) {
-      agvcal::wheel_state_t m;
-      if (!calib::Decode(e.data.data(), size, &m)) continue;
-      order.push_back({false, wheels.size()});
-      wheels.push_back(calib::WheelSampleFromMessage(m, robot, log));
-    } else if (e.channel == scan_channel) {
-      agvcal::laser_scan_t m;
-      if (!calib::Decode(e.data.data(), size, &m)) continue;
-      order.push_back({true, scans.size()});
-      scans.push_back(calib::LaserScanFromMessage(m, log));
-    }
-  }
+  const std::string scan_channel = calib::ScanChannel(robot);
+  calib::RecordingSource recording(log);
+  calib::SubscribeWheels(&recording, robot, [&](const calib::WheelSample& sample) {
+    order.push_back({false, wheels.size()});
+    wheels.push_back(sample);
+  });
+  calib::SubscribeScans(&recording, scan_channel, [&](calib::LaserScan scan) {
+    order.push_back({true, scans.size()});
+    scans.push_back(std::move(scan));
+  });
+  recording.HandleAll();
   if (scans.size() < 2) throw calib::InputError(log, scan_channel, "fewer than two scans");
 
   const calib::ScanMatchOptions options;

@@ -6,7 +6,7 @@
 #include <cstdio>
 #include <string>
 
-#include "calib/calibrate/solve_log.h"
+#include "calib/calibrate/recording_input.h"
 #include "calib/io/recording.h"
 #include "calib/live/sim_run.h"
 #include "calib/sim/simulator.h"

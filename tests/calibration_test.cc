@@ -49,11 +49,11 @@ CalibrationData Record(const SimConfig& config, const std::string& trajectory) {
     if (e.channel == kWheelsChannel) {
       agvcal::wheel_state_t m;
       EXPECT_TRUE(Decode(e.data.data(), int(e.data.size()), &m));
-      data.AddWheels(m, "sim");
+      data.AddWheels(WheelSampleFromMessage(m, config.robot, "sim"));
     } else if (e.channel == kPoseChannel) {
       agvcal::pose2d_t m;
       EXPECT_TRUE(Decode(e.data.data(), int(e.data.size()), &m));
-      data.AddPose(m);
+      data.AddPose(PoseFromMessage(m));
     }
   }
   return data;
@@ -95,7 +95,7 @@ INSTANTIATE_TEST_SUITE_P(DriveTypes, PoseCalibration,
 TEST(Calibration, PoseIntervalsJoinThePoseStream) {
   PoseIntervals intervals;
   std::vector<SensorMotion> motions;
-  agvcal::pose2d_t pose{};
+  StampedPose pose;
   for (int i = 0; i <= 40; ++i) {
     pose.utime = 1'000'000 + 50'000 * i;
     pose.x = 0.01 * i;

@@ -25,6 +25,7 @@
 #include "calib/core/robot.h"
 #include "calib/ground/ground_session.h"
 #include "calib/io/cloud_file.h"
+#include "calib/io/message_source.h"
 #include "calib/io/messages.h"
 #include "calib/io/recording.h"
 #include "calib/sim/simulator.h"
@@ -75,6 +76,19 @@ struct SimRun {
   std::vector<std::vector<float>> clouds;
   MemorySink sink;
 };
+
+// Runs `session` over the simulator's messages through a recording, as `agvcal ground` does.
+void Replay(const MemorySink& sink, GroundSession* session) {
+  const std::string path = TempPath("session.log");
+  {
+    LogWriter writer(path);
+    for (const LogEvent& e : sink.events) writer.Publish(e.channel, e.timestamp, e.data);
+    writer.Close();
+  }
+  RecordingSource source(path);
+  session->Subscribe(&source);
+  source.HandleAll();
+}
 
 SimRun Simulate(const SimConfig& config, double seconds) {
   SimRun run;
@@ -458,8 +472,7 @@ TEST(GroundTest, TurningLidarGetsOneEstimatePerSector) {
   const SimRun run = Simulate(config, 24.5);
   GroundSession session(config.robot, GroundOptions{});
   EXPECT_EQ(session.angle_channel(), "LIDAR3D_ANGLE");
-  for (const LogEvent& e : run.sink.events)
-    session.OnMessage(e.channel, e.data.data(), static_cast<int>(e.data.size()), "sim", "event");
+  Replay(run.sink, &session);
   const GroundCalibrator& calibrator = session.calibrator();
   ASSERT_EQ(calibrator.num_sectors(), 24);
   const GroundResult result = calibrator.Result(true);
@@ -509,7 +522,7 @@ TEST(GroundTest, TurningLidarGetsOneEstimatePerSector) {
   EXPECT_EQ(calibrator.SectorOf(0.2617993877991494 * 1.5 - M_PI), 1);
 
   // The live message reports the newest cloud's sector and its estimate.
-  const agvcal::ground_estimate_t msg = session.EstimateMessage();
+  const GroundEstimate msg = session.CurrentEstimate();
   EXPECT_EQ(msg.status, "ok");
   EXPECT_EQ(msg.num_sectors, 24);
   EXPECT_EQ(msg.sectors_done, 24);
@@ -520,8 +533,7 @@ TEST(GroundTest, TurningLidarWithSectorsLeftOutIsRefusedNamingThem) {
   const SimConfig config = TurretConfig();
   const SimRun run = Simulate(config, 8.0);  // a third of a turn
   GroundSession session(config.robot, GroundOptions{});
-  for (const LogEvent& e : run.sink.events)
-    session.OnMessage(e.channel, e.data.data(), static_cast<int>(e.data.size()), "sim", "event");
+  Replay(run.sink, &session);
   const std::string why = Refusal([&] { session.calibrator().Result(false); });
   EXPECT_NE(why.find("no estimate for sector"), std::string::npos) << why;
   EXPECT_NE(why.find("of 24"), std::string::npos) << why;
@@ -532,22 +544,19 @@ TEST(GroundTest, SessionUsesTheNewestAngleAtOrBeforeEachCloud) {
   const RobotDescription robot = ParseRobot(kTurretRobot, "turret.yaml");
   GroundSession session(robot, GroundOptions{});
   const auto cloud_xyz = PlaneCloud({1.9, 0.0, 0.0}, 3000, 6);
-  agvcal::point_cloud_t cloud = CloudMessage(cloud_xyz, 0);
-  ASSERT_EQ(cloud.npoints, 3000);
-  ASSERT_EQ(cloud.xyz[2][1], cloud_xyz[7]);
-  auto angle = [&](int64_t utime, double a) {
-    agvcal::mount_angle_t m{};
-    m.utime = utime;
-    m.angle = a;
-    session.OnMountAngle(m);
-  };
+  PointCloud cloud{0, cloud_xyz};
+  const agvcal::point_cloud_t message = ToMessage(cloud);
+  ASSERT_EQ(message.npoints, 3000);
+  ASSERT_EQ(message.xyz[2][1], cloud_xyz[7]);
+  ASSERT_EQ(CloudFromMessage(message).xyz, cloud_xyz);
+  auto angle = [&](int64_t utime, double a) { session.OnMountAngle(MountAngle{utime, a}); };
   cloud.utime = 1000000;
   EXPECT_EQ(session.OnCloud(cloud), nullptr);  // no angle yet: skipped
   angle(1000000, 0.1);
   angle(1300000, 1.0);  // stamped after the next cloud, arrives before it
   cloud.utime = 1100000;
   ASSERT_NE(session.OnCloud(cloud), nullptr);
-  EXPECT_EQ(session.EstimateMessage().sector, session.calibrator().SectorOf(0.1));
+  EXPECT_EQ(session.CurrentEstimate().sector, session.calibrator().SectorOf(0.1));
   cloud.utime = 1600000;  // the newest angle at or before is 0.3 s old: over max_age 0.2 s
   EXPECT_EQ(session.OnCloud(cloud), nullptr);
   EXPECT_EQ(session.calibrator().frames_seen(), 3);

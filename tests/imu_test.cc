@@ -16,7 +16,7 @@
 #include "agvcal/wheel_state_t.hpp"
 #include "calib/calibrate/fused_odometry.h"
 #include "calib/calibrate/imu_calibration.h"
-#include "calib/calibrate/solve_log.h"
+#include "calib/calibrate/recording_input.h"
 #include "calib/core/errors.h"
 #include "calib/io/messages.h"
 #include "calib/io/recording.h"

@@ -105,7 +105,7 @@ RobotDescription Forklift() { return LoadRobotFile(Source("config/robots/forklif
 
 struct Stream {
   std::vector<WheelSample> wheels;
-  std::vector<agvcal::pose2d_t> poses;
+  std::vector<StampedPose> poses;
   std::vector<SensorMotion> motions;
 };
 
@@ -119,7 +119,7 @@ Stream StraightDrive(double seconds, double gap_from = -1, double gap_to = -1) {
     const double t = k * 0.01;
     s.wheels.push_back({kT0 + k * 10000, {0.5 * t / radius}, {0.0}});
     if (k % 10 == 0 && !(t >= gap_from && t < gap_to)) {
-      agvcal::pose2d_t p{};
+      StampedPose p;
       p.utime = kT0 + k * 10000;
       p.x = -5.0 + 0.5 * t;
       s.poses.push_back(p);
@@ -321,7 +321,7 @@ Route SimulateRoute(uint64_t seed) {
     } else if (e.channel == kPoseChannel) {
       agvcal::pose2d_t m;
       EXPECT_TRUE(Decode(e.data.data(), static_cast<int>(e.data.size()), &m));
-      recorder.AddPose(m);
+      recorder.AddPose(PoseFromMessage(m));
     }
     while (auto batch = recorder.TakeBatch()) r.batches.push_back(std::move(*batch));
   }

@@ -10,7 +10,7 @@
 #include <cstdio>
 #include <string>
 
-#include "calib/calibrate/solve_log.h"
+#include "calib/calibrate/recording_input.h"
 #include "calib/core/errors.h"
 #include "calib/io/recording.h"
 #include "calib/live/sim_run.h"

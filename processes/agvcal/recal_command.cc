@@ -35,7 +35,10 @@ int Recal(int argc, char** argv) {
   if (!args.Has("--config")) throw calib::InputError("command line", "--config", "missing (the recalibration config)");
   const calib::RobotDescription robot = calib::LoadRobotFile(args.positional[0]);
   const calib::RecalConfig config = calib::LoadRecalConfig(args.Get("--config", ""));
-  const calib::MotionSource source = agvcal_process::MotionSourceOption(args, robot);
+  const calib::MotionSource source =
+      agvcal_process::MotionSourceOption(args, {calib::MotionSource::kLidar2d, calib::MotionSource::kPose},
+                                         agvcal_process::LiveMotionSource(robot))
+          .value();
   const std::string robot_out = args.Get("--out-robot", ""), decisions = args.Get("--decisions", "");
   const calib::CalibrationInUse start = calib::StartingCalibration(robot, robot_out, source, config);
   std::printf("calibration in use: %s\n", start.origin.c_str());

@@ -5,7 +5,7 @@
 #include "calib/calibrate/calibration.h"
 #include "calib/calibrate/heldout.h"
 #include "calib/calibrate/result_files.h"
-#include "calib/calibrate/solve_log.h"
+#include "calib/calibrate/recording_input.h"
 #include "calib/core/errors.h"
 #include "calib/core/statistics.h"
 #include "commands.h"
@@ -73,13 +73,9 @@ int Solve(int argc, char** argv) {
       throw calib::InputError("command line", "--heldout-windows", "expected a whole number in [1, 1000]");
     options.calibration.heldout_windows = static_cast<int>(n);
   }
-  if (args.Has("--source")) {
-    const std::string source = args.Get("--source", "");
-    if (source == "lidar2d") options.source = calib::MotionSource::kLidar2d;
-    else if (source == "pose") options.source = calib::MotionSource::kPose;
-    else if (source == "imu") options.source = calib::MotionSource::kImu;
-    else throw calib::InputError("command line", "--source", "expected lidar2d, pose or imu, got '" + source + "'");
-  }
+  // Without --source: the one the recording calls for (calib::ChooseMotionSource).
+  options.source = agvcal_process::MotionSourceOption(
+      args, {calib::MotionSource::kLidar2d, calib::MotionSource::kPose, calib::MotionSource::kImu}, std::nullopt);
   auto positive = [&](const char* key) {
     const double v = args.GetDouble(key, 0.0);
     if (!(v > 0.0 && std::isfinite(v))) throw calib::InputError("command line", key, "expected a positive number");

@@ -6,8 +6,6 @@
 // HEARTBEAT are stale (wall clock) and while the operator's STOP is engaged,
 // and stops it on SIGINT/SIGTERM and at the end; if it crashes, the timeout of
 // its last command stops the robot.
-#include <lcm/lcm-cpp.hpp>
-
 #include <algorithm>
 #include <climits>
 #include <cmath>
@@ -27,6 +25,7 @@
 #include "calib/io/messages.h"
 #include "calib/live/commander.h"
 #include "calib/live/commander_safety.h"
+#include "common/bus_source.h"
 #include "common/process_util.h"
 
 namespace {
@@ -62,14 +61,13 @@ constexpr int kFinalStops = 5;  // stop commands sent after the trajectory ends
 // seed the commander's first steering ramp.
 class WheelListener {
  public:
-  void OnWheels(const lcm::ReceiveBuffer*, const std::string&, const agvcal::wheel_state_t* msg) {
-    // Called from C: copies only, nothing that throws past here.
+  void OnWheels(const agvcal::wheel_state_t& msg) {
     fresh_ = true;
-    utime_ = msg->utime;
+    utime_ = msg.utime;
     if (first_steer_.empty()) {
-      const size_t n = std::min({static_cast<size_t>(std::max(msg->num_wheels, 0)),
-                                 msg->name.size(), msg->steer.size()});
-      for (size_t i = 0; i < n; ++i) first_steer_[msg->name[i]] = msg->steer[i];
+      const size_t n = std::min({static_cast<size_t>(std::max(msg.num_wheels, 0)),
+                                 msg.name.size(), msg.steer.size()});
+      for (size_t i = 0; i < n; ++i) first_steer_[msg.name[i]] = msg.steer[i];
     }
   }
   // True once per message received since the last call.
@@ -91,18 +89,16 @@ class WheelListener {
 class SafetyListener {
  public:
   explicit SafetyListener(calib::CommanderSafety* safety) : safety_(safety) {}
-  void OnScan(const lcm::ReceiveBuffer*, const std::string& channel) {
-    safety_->Seen(channel, agvcal_process::WallMicros());
-  }
-  void OnHeartbeat(const lcm::ReceiveBuffer*, const std::string&, const agvcal::heartbeat_t* msg) {
-    if (msg->process == "commander" && msg->pid == getpid())
+  void OnScan(const std::string& channel) { safety_->Seen(channel, agvcal_process::WallMicros()); }
+  void OnHeartbeat(const agvcal::heartbeat_t& msg) {
+    if (msg.process == "commander" && msg.pid == getpid())
       safety_->Seen(kOwnHeartbeat, agvcal_process::WallMicros());
   }
-  void OnStop(const lcm::ReceiveBuffer*, const std::string&, const agvcal::operator_stop_t* msg) {
-    if (msg->stop != safety_->operator_stop())
-      std::cerr << "agvcal-commander: operator " << (msg->stop ? "stop" : "release") << " from "
-                << msg->source << (msg->reason.empty() ? "" : ": " + msg->reason) << "\n";
-    safety_->SetOperatorStop(msg->stop, msg->source + (msg->reason.empty() ? "" : ": " + msg->reason));
+  void OnStop(const agvcal::operator_stop_t& msg) {
+    if (msg.stop != safety_->operator_stop())
+      std::cerr << "agvcal-commander: operator " << (msg.stop ? "stop" : "release") << " from "
+                << msg.source << (msg.reason.empty() ? "" : ": " + msg.reason) << "\n";
+    safety_->SetOperatorStop(msg.stop, msg.source + (msg.reason.empty() ? "" : ": " + msg.reason));
   }
   static constexpr const char* kOwnHeartbeat = "own HEARTBEAT";
 
@@ -160,15 +156,20 @@ int Run(int argc, char** argv) {
   if (watch_scans) safety.Watch(robot.lidar2d->channel, stale_timeout_s);
   safety.Watch(SafetyListener::kOwnHeartbeat, heartbeat_timeout_s);
 
-  const std::string url = args.Get("--lcm-url", "");
-  lcm::LCM lcm(url);
-  RequireGoodBus(lcm, url);
+  BusSource bus(args.Get("--lcm-url", ""), "agvcal-commander");
+  lcm::LCM& lcm = bus.lcm();
   WheelListener wheels;
   SafetyListener safety_listener(&safety);
-  SubscribeEveryMessage(lcm, calib::kWheelsChannel, &WheelListener::OnWheels, &wheels);
-  if (watch_scans) SubscribeEveryMessage(lcm, robot.lidar2d->channel, &SafetyListener::OnScan, &safety_listener);
-  SubscribeEveryMessage(lcm, calib::kHeartbeatChannel, &SafetyListener::OnHeartbeat, &safety_listener);
-  SubscribeEveryMessage(lcm, calib::kStopChannel, &SafetyListener::OnStop, &safety_listener);
+  bus.Subscribe<agvcal::wheel_state_t>(
+      calib::kWheelsChannel, [&](const agvcal::wheel_state_t& m, const std::string&) { wheels.OnWheels(m); });
+  if (watch_scans) {
+    bus.SubscribeRaw(robot.lidar2d->channel,
+                     [&](const std::string& channel, const uint8_t*, size_t) { safety_listener.OnScan(channel); });
+  }
+  bus.Subscribe<agvcal::heartbeat_t>(
+      calib::kHeartbeatChannel, [&](const agvcal::heartbeat_t& m, const std::string&) { safety_listener.OnHeartbeat(m); });
+  bus.Subscribe<agvcal::operator_stop_t>(
+      calib::kStopChannel, [&](const agvcal::operator_stop_t& m, const std::string&) { safety_listener.OnStop(m); });
   Heartbeat heartbeat(&lcm, "commander");
   InstallStopHandlers();
 
@@ -227,14 +228,11 @@ int Run(int argc, char** argv) {
             << " s; waiting for WHEELS\n";
 
   while (true) {
-    if (g_stop_requested) {
+    if (bus.done()) {
       std::cerr << "agvcal-commander: stop requested, robot told to stop\n";
       return finish("stopped");
     }
-    if (lcm.handleTimeout(static_cast<int>(std::clamp<int64_t>(period_us / 4000, 1, 20))) < 0 &&
-        !g_stop_requested) {
-      throw std::runtime_error("receiving from the LCM bus failed");
-    }
+    bus.HandleNext(static_cast<int>(std::clamp<int64_t>(period_us / 4000, 1, 20)));
     heartbeat.Beat(held ? "held: " + *held
                    : !commander ? "waiting for WHEELS"
                                 : std::string(StateName(commander->status().state)) + " segment " +

@@ -1,10 +1,8 @@
 #include "common/process_util.h"
 
-#include <algorithm>
 #include <chrono>
 #include <csignal>
 #include <cstdlib>
-#include <filesystem>
 #include <iostream>
 #include <unistd.h>
 
@@ -52,66 +50,6 @@ void Heartbeat::Beat(const std::string& state, bool force) {
   msg.pid = static_cast<int32_t>(getpid());
   msg.state = state;
   lcm_->publish(calib::kHeartbeatChannel, &msg);
-}
-
-void HandleQueued(lcm::LCM& lcm, double limit_s) {
-  const int64_t until = WallMicros() + static_cast<int64_t>(limit_s * 1e6);
-  while (WallMicros() < until && lcm.handleTimeout(50) > 0) {
-  }
-}
-
-CatchUpInput::CatchUpInput(lcm::LCM* lcm, const std::vector<std::string>& channels, Deliver deliver)
-    : lcm_(lcm), channels_(channels), deliver_(std::move(deliver)) {
-  for (const std::string& c : channels_) SubscribeEveryMessage(*lcm_, c, &CatchUpInput::OnMessage, this);
-}
-
-void CatchUpInput::OnMessage(const lcm::ReceiveBuffer* buffer, const std::string& channel) {
-  const auto* data = static_cast<const uint8_t*>(buffer->data);
-  if (!holding_) return Offer(channel, data, buffer->data_size);
-  if (const auto stamp = calib::LeadingStamp(data, buffer->data_size)) tracker_->Live(channel, *stamp);
-  held_.emplace_back(channel, std::vector<uint8_t>(data, data + buffer->data_size));
-}
-
-void CatchUpInput::Offer(const std::string& channel, const uint8_t* data, size_t size) {
-  const auto stamp = calib::LeadingStamp(data, size);
-  if (stamp && !filter_.Accept(channel, *stamp)) return;
-  deliver_(channel, data, size);  // a message too short for a stamp: the decoder rejects it
-}
-
-int64_t CatchUpInput::CatchUp(const std::string& recording, const std::string& program,
-                              Heartbeat* heartbeat, double limit_s) {
-  constexpr int64_t kQuietUs = 2000000;  // a channel silent this long live has nothing missing
-  holding_ = true;
-  tracker_.emplace(channels_, kQuietUs);
-  const int64_t start = WallMicros();
-  std::optional<calib::LogReader> reader;
-  int64_t recovered = 0;
-  calib::LogEvent event;
-  while (!g_stop_requested) {
-    lcm_->handleTimeout(20);
-    if (!reader && std::filesystem::exists(recording)) reader.emplace(recording);
-    while (reader && reader->NextComplete(&event)) {
-      if (std::find(channels_.begin(), channels_.end(), event.channel) == channels_.end()) continue;
-      if (const auto stamp = calib::LeadingStamp(event.data.data(), event.data.size()))
-        tracker_->Recorded(event.channel, *stamp);
-      Offer(event.channel, event.data.data(), event.data.size());
-      ++recovered;
-    }
-    const int64_t elapsed = WallMicros() - start;
-    if (reader && tracker_->Complete(elapsed)) break;
-    if (elapsed > limit_s * 1e6) {
-      std::cerr << program << ": catching up from " << recording << " took over " << limit_s
-                << " s; messages may be missing on " << tracker_->Pending(elapsed) << "\n";
-      break;
-    }
-    if (heartbeat) heartbeat->Beat("catching up");
-  }
-  holding_ = false;
-  for (const auto& [channel, bytes] : held_) Offer(channel, bytes.data(), bytes.size());
-  held_.clear();
-  std::cerr << program << ": caught up: " << recovered << " messages from " << recording << ", "
-            << duplicates() << " duplicates dropped\n";
-  return recovered;
 }
 
 std::string Args::Get(const std::string& key, const std::string& fallback) const {
@@ -169,11 +107,22 @@ std::optional<int> CheckUsage(const Args& args, const char* usage, size_t positi
   return std::nullopt;
 }
 
-calib::MotionSource MotionSourceOption(const Args& args, const calib::RobotDescription& robot) {
-  const std::string name = args.Get("--source", robot.lidar2d ? "lidar2d" : "pose");
-  if (name != "lidar2d" && name != "pose")
-    throw calib::InputError("command line", "--source", "expected lidar2d or pose, got '" + name + "'");
-  return name == "pose" ? calib::MotionSource::kPose : calib::MotionSource::kLidar2d;
+std::optional<calib::MotionSource> MotionSourceOption(const Args& args,
+                                                      const std::vector<calib::MotionSource>& allowed,
+                                                      std::optional<calib::MotionSource> fallback) {
+  if (!args.Has("--source")) return fallback;
+  const std::string name = args.Get("--source", "");
+  std::string choices;
+  for (size_t i = 0; i < allowed.size(); ++i) {
+    choices += (i == 0 ? "" : i + 1 == allowed.size() ? " or " : ", ");
+    choices += calib::MotionSourceName(allowed[i]);
+    if (name == calib::MotionSourceName(allowed[i])) return allowed[i];
+  }
+  throw calib::InputError("command line", "--source", "expected " + choices + ", got '" + name + "'");
+}
+
+calib::MotionSource LiveMotionSource(const calib::RobotDescription& robot) {
+  return robot.lidar2d ? calib::MotionSource::kLidar2d : calib::MotionSource::kPose;
 }
 
 }  // namespace agvcal_process

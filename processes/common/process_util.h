@@ -1,14 +1,13 @@
 #pragma once
 // What every agvcal process needs around libcalib: publishing encoded
 // messages on the bus, heartbeats, a stop flag set by SIGINT/SIGTERM, and a
-// small command-line reader. Nothing here computes.
+// small command-line reader. Nothing here computes. Listening to the bus:
+// bus_source.h.
 
 #include <lcm/lcm-cpp.hpp>
 
 #include <atomic>
 #include <cstdint>
-#include <exception>
-#include <functional>
 #include <map>
 #include <optional>
 #include <string>
@@ -18,7 +17,6 @@
 #include "calib/calibrate/calibration.h"
 #include "calib/core/robot.h"
 #include "calib/io/recording.h"
-#include "calib/live/catch_up.h"
 
 namespace agvcal_process {
 
@@ -39,44 +37,9 @@ class LcmSink : public calib::MessageSink {
 // the --lcm-url given ("" = LCM_DEFAULT_URL or LCM's default).
 void RequireGoodBus(lcm::LCM& lcm, const std::string& url);
 
-// lcm.subscribe(args...) keeping every message. LCM queues at most 30 messages per
-// subscription by default and silently drops the rest while the process is busy (a slow
-// scan match, a loaded machine: 60 ms of WHEELS at a 5x replay), and one lost WHEELS message
-// changes every later live result (DESIGN.md: live = offline). Displays may keep the default.
-template <typename... SubscribeArgs>
-lcm::Subscription* SubscribeEveryMessage(lcm::LCM& lcm, SubscribeArgs&&... args) {
-  lcm::Subscription* subscription = lcm.subscribe(std::forward<SubscribeArgs>(args)...);
-  if (subscription) subscription->setQueueCapacity(0);  // 0: no limit
-  return subscription;
-}
-
-// On stop: handles the messages already received or still arriving (until 50 ms pass
-// without one, at most `limit_s` wall seconds), so what was sent before the stop is not
-// lost with the queue.
-void HandleQueued(lcm::LCM& lcm, double limit_s = 2.0);
-
 // Set by SIGINT or SIGTERM once InstallStopHandlers() has run.
 extern std::atomic<bool> g_stop_requested;
 void InstallStopHandlers();
-
-// Exceptions must not cross LCM's C callbacks: Run(f) keeps the first one's
-// message and requests the stop; the process reports it after its loop.
-class FirstError {
- public:
-  template <typename F>
-  void Run(F f) {
-    try {
-      f();
-    } catch (const std::exception& e) {
-      if (!message_) message_ = e.what();
-      g_stop_requested = true;
-    }
-  }
-  const std::optional<std::string>& message() const { return message_; }
-
- private:
-  std::optional<std::string> message_;
-};
 
 // Wall-clock microseconds (heartbeats and pacing only; data carry robot time).
 int64_t WallMicros();
@@ -91,38 +54,6 @@ class Heartbeat {
   lcm::LCM* lcm_;
   std::string process_;
   int64_t last_ = 0;
-};
-
-// Raw subscription to `channels` that delivers each message once, in stamp
-// order per channel (calib/live/catch_up.h); with CatchUp(), first what the group's
-// recording holds of what was published before this process subscribed, so a
-// process restarted mid-run ends with the inputs of an undisturbed one.
-class CatchUpInput {
- public:
-  using Deliver = std::function<void(const std::string& channel, const uint8_t* data, size_t size)>;
-  CatchUpInput(lcm::LCM* lcm, const std::vector<std::string>& channels, Deliver deliver);
-
-  // Reads `recording` (lcm-logger's file, still being written; waited for if
-  // it does not exist yet) until it reaches the first live message of every
-  // channel, at most `limit_s` wall seconds, then delivers the live messages
-  // held meanwhile. Progress and any gap left are reported on stderr under
-  // `program`. Returns the number of messages taken from the recording.
-  int64_t CatchUp(const std::string& recording, const std::string& program, Heartbeat* heartbeat,
-                  double limit_s = 10.0);
-  // Messages dropped as already delivered (the recording and live overlap).
-  int64_t duplicates() const { return filter_.rejected(); }
-
- private:
-  void OnMessage(const lcm::ReceiveBuffer* buffer, const std::string& channel);
-  void Offer(const std::string& channel, const uint8_t* data, size_t size);
-
-  lcm::LCM* lcm_;
-  std::vector<std::string> channels_;
-  Deliver deliver_;
-  calib::StampFilter filter_;
-  bool holding_ = false;
-  std::optional<calib::CatchUpTracker> tracker_;
-  std::vector<std::pair<std::string, std::vector<uint8_t>>> held_;
 };
 
 // Command line: positional arguments and --key value / --flag options.
@@ -146,8 +77,15 @@ Args ParseArgs(int argc, char** argv, int first, const std::vector<std::string>&
 // nothing to go on.
 std::optional<int> CheckUsage(const Args& args, const char* usage, size_t positional_count);
 
-// The --source option (lidar2d or pose): the sensor whose motion calibrates; by default the
-// robot file's 2D lidar if it has one, else its external pose source. InputError otherwise.
-calib::MotionSource MotionSourceOption(const Args& args, const calib::RobotDescription& robot);
+// The --source option: the sensor whose motion calibrates, one of `allowed` (named as
+// calib::MotionSourceName: lidar2d, pose, imu), or `fallback` when it is not given.
+// InputError naming the choices for any other name.
+std::optional<calib::MotionSource> MotionSourceOption(const Args& args,
+                                                      const std::vector<calib::MotionSource>& allowed,
+                                                      std::optional<calib::MotionSource> fallback);
+
+// The live calibrations' default sensor: the robot file's 2D lidar if it has one, else
+// its external pose source.
+calib::MotionSource LiveMotionSource(const calib::RobotDescription& robot);
 
 }  // namespace agvcal_process

@@ -1,9 +1,6 @@
 // agvcal-ground: the 3D lidar's height, pitch and roll above the floor, live.
 // Wires LCM to calib::GroundSession (the same code as `agvcal ground`) and
 // publishes the estimate after every cloud.
-#include <lcm/lcm-cpp.hpp>
-
-#include <exception>
 #include <iostream>
 #include <string>
 
@@ -14,6 +11,7 @@
 #include "calib/ground/ground_session.h"
 #include "calib/io/atomic_file.h"
 #include "calib/io/messages.h"
+#include "common/bus_source.h"
 #include "common/process_util.h"
 
 namespace {
@@ -39,39 +37,22 @@ Exit status: 0 stopped (and the result written), 2 bad robot file, options or
 bus, 3 the floor did not determine the answer (with --out), 1 internal error.
 )";
 
-// LCM calls this from C: nothing may throw past it (STYLE.md); a corrupt
-// message is reported and skipped, as a live process must go on.
-class Node {
- public:
-  Node(lcm::LCM* lcm, calib::GroundSession* session) : lcm_(lcm), session_(session) {}
-
-  void OnMessage(const lcm::ReceiveBuffer* rbuf, const std::string& channel) {
-    try {
-      const bool cloud = channel == session_->cloud_channel();
-      session_->OnMessage(channel, rbuf->data, static_cast<int>(rbuf->data_size), "bus",
-                          "message at " + std::to_string(rbuf->recv_utime) + " us");
-      if (!cloud) return;
-      const agvcal::ground_estimate_t msg = session_->EstimateMessage();
-      lcm_->publish(calib::kGroundEstimateChannel, &msg);
-      state_ = msg.status.substr(0, msg.status.find(':'));
-    } catch (const calib::InputError& e) {
-      ++corrupt_;
-      std::cerr << "agvcal-ground: skipped: " << e.what() << "\n";
-    } catch (const std::exception& e) {
-      error_ = e.what();
-    }
-  }
-  const std::string& error() const { return error_; }
-  std::string state() const {
-    return std::to_string(session_->clouds()) + " clouds, " + (state_.empty() ? "waiting" : state_);
-  }
-
- private:
-  lcm::LCM* lcm_;
-  calib::GroundSession* session_;
-  std::string error_, state_;
-  int corrupt_ = 0;
-};
+// The message of a session's state (GROUND_ESTIMATE).
+agvcal::ground_estimate_t ToMessage(const calib::GroundEstimate& e) {
+  agvcal::ground_estimate_t msg{};
+  msg.utime = e.utime;
+  msg.status = e.status;
+  msg.frames_seen = e.frames_seen;
+  msg.frames = e.frames;
+  msg.inliers = e.inliers;
+  msg.z = e.z, msg.pitch = e.pitch, msg.roll = e.roll;
+  msg.z_std = e.z_std, msg.pitch_std = e.pitch_std, msg.roll_std = e.roll_std;
+  msg.sector = e.sector;
+  msg.angle = e.angle;
+  msg.sectors_done = e.sectors_done;
+  msg.num_sectors = e.num_sectors;
+  return msg;
+}
 
 int Run(int argc, char** argv) {
   using namespace agvcal_process;
@@ -91,27 +72,26 @@ int Run(int argc, char** argv) {
   calib::GroundSession session(robot, options);
 
   const std::string url = args.Get("--lcm-url", "");
-  lcm::LCM lcm(url);
-  RequireGoodBus(lcm, url);
-  Node node(&lcm, &session);
-  SubscribeEveryMessage(lcm, session.cloud_channel(), &Node::OnMessage, &node);
-  if (!session.angle_channel().empty()) SubscribeEveryMessage(lcm, session.angle_channel(), &Node::OnMessage, &node);
-  Heartbeat heartbeat(&lcm, "ground");
+  BusSource bus(url, "agvcal-ground");
+  std::string state;  // of the newest estimate: "ok", "waiting", "refused"
+  session.Subscribe(&bus, [&]() {
+    const agvcal::ground_estimate_t msg = ToMessage(session.CurrentEstimate());
+    bus.lcm().publish(calib::kGroundEstimateChannel, &msg);
+    state = msg.status.substr(0, msg.status.find(':'));
+  });
+  auto state_line = [&]() {
+    return std::to_string(session.clouds()) + " clouds, " + (state.empty() ? "waiting" : state);
+  };
+  Heartbeat heartbeat(&bus.lcm(), "ground");
   InstallStopHandlers();
   std::cerr << "agvcal-ground: " << robot.name << ", listening on " << session.cloud_channel()
             << (session.angle_channel().empty() ? "" : " and " + session.angle_channel()) << "\n";
 
-  const bool from_file = url.rfind("file://", 0) == 0;
-  while (!g_stop_requested) {
-    const int handled = lcm.handleTimeout(200);
-    if (!node.error().empty()) throw std::runtime_error(node.error());
-    if (handled < 0) {
-      if (from_file) break;  // the file provider's log has ended
-      if (!g_stop_requested) throw std::runtime_error("receiving from the LCM bus failed");
-    }
-    heartbeat.Beat(node.state());
+  while (!bus.done()) {  // SIGINT/SIGTERM, or the end of a file:// provider's log
+    bus.HandleNext(200);
+    heartbeat.Beat(state_line());
   }
-  heartbeat.Beat("stopped: " + node.state(), true /* force */);
+  heartbeat.Beat("stopped: " + state_line(), true /* force */);
 
   if (!args.Has("--out")) return calib::kExitOk;
   calib::GroundInput input;

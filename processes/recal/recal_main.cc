@@ -3,21 +3,17 @@
 // decided by calib::Decide on a worker thread (the bus keeps being read meanwhile), one batch
 // at a time, in order; the outcome is written by calib::RecordDecision. `agvcal recal` runs the
 // same code on a recording and makes the same decisions.
-#include <lcm/lcm-cpp.hpp>
-
 #include <chrono>
 #include <future>
 #include <iostream>
 #include <optional>
 #include <string>
 
-#include "agvcal/pose2d_t.hpp"
-#include "agvcal/scan_match_t.hpp"
-#include "agvcal/wheel_state_t.hpp"
 #include "calib/calibrate/recalibration.h"
 #include "calib/core/errors.h"
-#include "calib/core/wheel_track.h"
+#include "calib/io/message_source.h"
 #include "calib/io/messages.h"
+#include "common/bus_source.h"
 #include "common/process_util.h"
 
 namespace {
@@ -39,41 +35,10 @@ significantly better there and consistent with the one in use
   --source lidar2d|pose    the sensor whose motion calibrates (default lidar2d if the robot
                            file has one, else pose)
   --lcm-url URL            LCM provider (default: $LCM_DEFAULT_URL or LCM's default)
-SIGINT/SIGTERM: a decision under way is finished and written, then it exits.
-Exit status: 0 stopped; 2 bad robot file, config, bus or message; 1 internal error.
+SIGINT/SIGTERM: a decision under way is finished and written, then it exits. A
+message that does not decode or convert is skipped, counted and reported once.
+Exit status: 0 stopped; 2 bad robot file, config or bus; 1 internal error.
 )";
-
-// Decodes and feeds the recorder. Handlers are called from C: nothing throws past them.
-class Feeder {
- public:
-  Feeder(const calib::RobotDescription& robot, calib::SegmentRecorder* recorder)
-      : robot_(robot), recorder_(recorder) {}
-
-  void OnWheels(const lcm::ReceiveBuffer*, const std::string& channel, const agvcal::wheel_state_t* msg) {
-    ++wheel_states_;
-    error_.Run([&] { recorder_->AddWheels(calib::WheelSampleFromMessage(*msg, robot_, channel)); });
-  }
-  void OnScanMatch(const lcm::ReceiveBuffer*, const std::string& channel, const agvcal::scan_match_t* msg) {
-    ++scan_matches_;
-    error_.Run([&] { recorder_->AddMotion(calib::FromMessage(*msg, channel)); });
-  }
-  void OnPose(const lcm::ReceiveBuffer*, const std::string&, const agvcal::pose2d_t* msg) {
-    ++poses_;
-    error_.Run([&] { recorder_->AddPose(*msg); });
-  }
-  const std::optional<std::string>& error() const { return error_.message(); }
-  // What was received, for the stop line: a shortfall against the recording means lost messages.
-  std::string Received() const {
-    return std::to_string(wheel_states_) + " wheel states, " + std::to_string(scan_matches_) + " scan matches, " +
-           std::to_string(poses_) + " poses";
-  }
-
- private:
-  const calib::RobotDescription& robot_;
-  calib::SegmentRecorder* recorder_;
-  agvcal_process::FirstError error_;
-  int64_t wheel_states_ = 0, scan_matches_ = 0, poses_ = 0;
-};
 
 int Run(int argc, char** argv) {
   using namespace agvcal_process;
@@ -82,20 +47,21 @@ int Run(int argc, char** argv) {
   if (!args.Has("--config")) throw calib::InputError("command line", "--config", "missing (the recalibration config)");
   const calib::RobotDescription robot = calib::LoadRobotFile(args.positional[0]);
   const calib::RecalConfig config = calib::LoadRecalConfig(args.Get("--config", ""));
-  const calib::MotionSource source = MotionSourceOption(args, robot);
+  const calib::MotionSource source =
+      MotionSourceOption(args, {calib::MotionSource::kLidar2d, calib::MotionSource::kPose}, LiveMotionSource(robot))
+          .value();
   const std::string robot_out = args.Get("--out-robot", ""), decisions_path = args.Get("--decisions", "");
   calib::CalibrationInUse in_use = calib::StartingCalibration(robot, robot_out, source, config);
   std::cerr << "agvcal-recal: calibration in use: " << in_use.origin << "\n";
 
-  const std::string url = args.Get("--lcm-url", "");
-  lcm::LCM lcm(url);
-  RequireGoodBus(lcm, url);
+  BusSource bus(args.Get("--lcm-url", ""), "agvcal-recal");
   calib::SegmentRecorder recorder(config, robot, source);
-  Feeder feeder(robot, &recorder);
-  SubscribeEveryMessage(lcm, calib::kWheelsChannel, &Feeder::OnWheels, &feeder);
-  if (source == calib::MotionSource::kLidar2d) SubscribeEveryMessage(lcm, calib::kScanMatchChannel, &Feeder::OnScanMatch, &feeder);
-  SubscribeEveryMessage(lcm, robot.pose ? robot.pose->channel : calib::kPoseChannel, &Feeder::OnPose, &feeder);
-  Heartbeat heartbeat(&lcm, "recal");
+  calib::SubscribeWheels(&bus, robot, [&](const calib::WheelSample& sample) { recorder.AddWheels(sample); });
+  if (source == calib::MotionSource::kLidar2d)
+    calib::SubscribeScanMatches(&bus, [&](const calib::SensorMotion& motion) { recorder.AddMotion(motion); });
+  const std::string pose_channel = calib::PoseChannel(robot);
+  calib::SubscribePoses(&bus, pose_channel, [&](const calib::StampedPose& pose) { recorder.AddPose(pose); });
+  Heartbeat heartbeat(&bus.lcm(), "recal");
   InstallStopHandlers();
 
   std::future<calib::RecalDecision> pending;
@@ -108,8 +74,8 @@ int Run(int argc, char** argv) {
     std::cerr << "agvcal-recal: decision " << d.number << ": " << calib::VerdictName(d.verdict) << ": "
               << d.reason << "\n";
   };
-  while (!g_stop_requested) {
-    lcm.handleTimeout(50);
+  while (!bus.done()) {
+    bus.HandleNext(50);
     if (pending.valid() && pending.wait_for(std::chrono::seconds(0)) == std::future_status::ready) finish();
     if (!pending.valid()) {
       if (std::optional<calib::SegmentBatch> batch = recorder.TakeBatch()) {
@@ -123,11 +89,13 @@ int Run(int argc, char** argv) {
                    " accepted, " + std::to_string(rejected) + " rejected, " + std::to_string(no_fit) + " no fit" +
                    (pending.valid() ? ", deciding" : ""));
   }
-  HandleQueued(lcm);
+  bus.HandleQueued();
   if (pending.valid()) finish();  // a decision under way is written whole
   heartbeat.Beat("stopped", true);
-  if (feeder.error()) throw calib::InputError("bus", "message", *feeder.error());
-  std::cerr << "agvcal-recal: stopped; received " << feeder.Received() << "; " << recorder.segments_complete() << " segments ("
+  // What was received: a shortfall against the recording means lost messages.
+  std::cerr << "agvcal-recal: stopped; received " << bus.received(calib::kWheelsChannel) << " wheel states, "
+            << bus.received(calib::kScanMatchChannel) << " scan matches, " << bus.received(pose_channel)
+            << " poses, " << bus.skipped() << " unusable messages; " << recorder.segments_complete() << " segments ("
             << recorder.segments_dropped() << " dropped), " << accepted << " accepted, " << rejected
             << " rejected, " << no_fit << " no fit\n";
   return calib::kExitOk;

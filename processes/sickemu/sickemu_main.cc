@@ -16,8 +16,7 @@
 #include "agvcal/laser_scan_t.hpp"
 #include "calib/core/errors.h"
 #include "calib/devices/sick_cola.h"
-#include "calib/io/messages.h"
-#include "calib/io/recording.h"
+#include "calib/io/message_source.h"
 #include "common/process_util.h"
 #include "common/tcp_util.h"
 
@@ -42,15 +41,10 @@ using agvcal_process::WallMicros;
 
 std::vector<agvcal::laser_scan_t> ReadScans(const std::string& path, const std::string& channel) {
   std::vector<agvcal::laser_scan_t> scans;
-  calib::LogReader reader(path);
-  calib::LogEvent e;
-  while (reader.Next(&e)) {
-    if (e.channel != channel) continue;
-    agvcal::laser_scan_t m;
-    if (!calib::Decode(e.data.data(), int(e.data.size()), &m))
-      throw calib::InputError(path, "event " + std::to_string(e.event_number), "not a laser_scan_t on " + channel);
-    scans.push_back(std::move(m));
-  }
+  calib::RecordingSource recording(path);
+  recording.Subscribe<agvcal::laser_scan_t>(
+      channel, [&](const agvcal::laser_scan_t& m, const std::string&) { scans.push_back(m); });
+  recording.HandleAll();
   if (scans.empty()) throw calib::InputError(path, "", "no " + channel + " messages");
   return scans;
 }

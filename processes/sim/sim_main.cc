@@ -1,14 +1,12 @@
 // agvcal-sim: the simulator as a live process. Publishes WHEELS, SCAN, IMU,
 // CLOUD, POSE and GROUND_TRUTH as configured, and follows DRIVE_CMD.
-#include <lcm/lcm-cpp.hpp>
-
 #include <algorithm>
 #include <iostream>
 
-#include "agvcal/drive_command_t.hpp"
 #include "calib/core/errors.h"
-#include "calib/io/messages.h"
+#include "calib/io/message_source.h"
 #include "calib/sim/simulator.h"
+#include "common/bus_source.h"
 #include "common/process_util.h"
 
 namespace {
@@ -18,32 +16,14 @@ const char* kUsage = R"(usage: agvcal-sim SIM.yaml [--speed X] [--duration S] [-
 
 Runs the simulated robot of SIM.yaml (see config/sims/) live on the LCM bus:
 publishes WHEELS, SCAN, IMU, CLOUD, POSE and GROUND_TRUTH as configured and
-follows DRIVE_CMD (the robot stops when a command's timeout expires).
+follows DRIVE_CMD (the robot stops when a command's timeout expires; a command
+that does not decode or names no setpoint for a wheel is ignored, and reported once).
   --speed X      simulated seconds per wall-clock second (default 1)
   --duration S   stop after S simulated seconds (default: until Ctrl-C)
   --lcm-url URL  LCM provider (default: $LCM_DEFAULT_URL or LCM's default)
   --print-robot  print the path of the robot file SIM.yaml simulates, and exit
 Exit status: 0 stopped cleanly, 2 bad config or bus, 1 internal error.
 )";
-
-class CommandListener {
- public:
-  CommandListener(calib::Simulator* sim, const calib::RobotDescription& robot)
-      : sim_(sim), robot_(robot) {}
-  void OnCommand(const lcm::ReceiveBuffer*, const std::string&,
-                 const agvcal::drive_command_t* msg) {
-    // Handlers are called from C: never let an exception escape.
-    try {
-      sim_->ApplyCommand(calib::FromMessage(*msg, robot_, "DRIVE_CMD"));
-    } catch (const std::exception& e) {
-      std::cerr << "agvcal-sim: ignoring command: " << e.what() << "\n";
-    }
-  }
-
- private:
-  calib::Simulator* sim_;
-  const calib::RobotDescription& robot_;
-};
 
 int Run(int argc, char** argv) {
   using namespace agvcal_process;
@@ -60,13 +40,11 @@ int Run(int argc, char** argv) {
     return calib::kExitOk;
   }
   calib::Simulator sim(std::move(config));
-  const std::string url = args.Get("--lcm-url", "");
-  lcm::LCM lcm(url);
-  RequireGoodBus(lcm, url);
-  LcmSink sink(&lcm);
-  CommandListener listener(&sim, sim.config().robot);
-  SubscribeEveryMessage(lcm, calib::kDriveCmdChannel, &CommandListener::OnCommand, &listener);
-  Heartbeat heartbeat(&lcm, "sim");
+  BusSource bus(args.Get("--lcm-url", ""), "agvcal-sim");
+  LcmSink sink(&bus.lcm());
+  calib::SubscribeDriveCommands(&bus, sim.config().robot,
+                                [&sim](const calib::DriveCommand& command) { sim.ApplyCommand(command); });
+  Heartbeat heartbeat(&bus.lcm(), "sim");
   InstallStopHandlers();
 
   // Simulated time follows the wall clock (times `speed`); commands are
@@ -74,13 +52,13 @@ int Run(int argc, char** argv) {
   const int64_t sim_start = sim.utime();
   const int64_t wall_start = WallMicros();
   const int64_t end = duration > 0 ? sim_start + static_cast<int64_t>(duration * 1e6) : INT64_MAX;
-  while (!g_stop_requested && sim.utime() < end) {
+  while (!bus.done() && sim.utime() < end) {
     const int64_t target =
         std::min(end, sim_start + static_cast<int64_t>((WallMicros() - wall_start) * speed));
     if (target > sim.utime()) sim.AdvanceTo(target, &sink);
     heartbeat.Beat("running t=" + std::to_string((sim.utime() - sim_start) / 1000000) + " s");
-    lcm.handleTimeout(10);
-    while (lcm.handleTimeout(0) > 0) {
+    bus.HandleNext(10);
+    while (bus.HandleNext(0)) {
     }
   }
   heartbeat.Beat("stopped", true);

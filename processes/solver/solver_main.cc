@@ -10,14 +10,13 @@
 
 #include <iostream>
 
-#include "agvcal/pose2d_t.hpp"
-#include "agvcal/scan_match_t.hpp"
-#include "agvcal/wheel_state_t.hpp"
 #include "calib/calibrate/calibration_data.h"
 #include "calib/calibrate/result_files.h"
 #include "calib/core/errors.h"
+#include "calib/io/message_source.h"
 #include "calib/io/messages.h"
 #include "calib/live/estimate_messages.h"
+#include "common/bus_source.h"
 #include "common/process_util.h"
 
 namespace {
@@ -37,8 +36,9 @@ CALIB_RESIDUALS (per-interval residuals), and HEARTBEAT.
                           group's recording (lcm-logger's file, still being written),
                           then continue live; each message is used once (by stamp)
   --lcm-url URL           LCM provider (default: $LCM_DEFAULT_URL or LCM's default)
+A message that does not decode or convert is skipped, counted and reported once.
 Exit status: 0 stopped by SIGINT/SIGTERM (after the final solve), 2 bad robot
-file, bus or message, 3 the final solve cannot determine a parameter, 1 internal.
+file or bus, 3 the final solve cannot determine a parameter, 1 internal.
 )";
 
 class Solver {
@@ -47,25 +47,20 @@ class Solver {
          lcm::LCM* lcm)
       : robot_(robot), source_(source), options_(options), data_(robot_), lcm_(lcm) {}
 
-  // One encoded message of `channel` (WHEELS, or the motion channel).
-  void OnMessage(const std::string& channel, const uint8_t* data, size_t size) {
-    error_.Run([&] {
-      if (channel == calib::kWheelsChannel) {
-        agvcal::wheel_state_t m;
-        if (Decoded(channel, data, size, &m)) data_.AddWheels(m, channel);
-        return;
-      }
-      if (source_ == calib::MotionSource::kPose) {
-        agvcal::pose2d_t m;
-        if (!Decoded(channel, data, size, &m)) return;
-        data_.AddPose(m);
-      } else {
-        agvcal::scan_match_t m;
-        if (!Decoded(channel, data, size, &m)) return;
-        data_.AddMotion(calib::FromMessage(m, channel));
-      }
-      if (!holding_solves_) MaybeSolve();
-    });
+  // Subscribes to WHEELS and the motion channel (SCAN_MATCH, or the robot file's pose channel).
+  void Subscribe(calib::MessageSource* source) {
+    calib::SubscribeWheels(source, robot_, [this](const calib::WheelSample& sample) { data_.AddWheels(sample); });
+    if (source_ == calib::MotionSource::kPose) {
+      calib::SubscribePoses(source, calib::PoseChannel(robot_), [this](const calib::StampedPose& pose) {
+        data_.AddPose(pose);
+        if (!holding_solves_) MaybeSolve();
+      });
+    } else {
+      calib::SubscribeScanMatches(source, [this](const calib::SensorMotion& motion) {
+        data_.AddMotion(motion);
+        if (!holding_solves_) MaybeSolve();
+      });
+    }
   }
 
   void set_every(std::size_t every) { every_ = every; }
@@ -74,7 +69,6 @@ class Solver {
     holding_solves_ = hold;
     if (!hold) MaybeSolve();
   }
-  const std::optional<std::string>& error() const { return error_.message(); }
 
   // Solves on everything collected; publishes the estimate and the new residuals.
   // Throws what Calibrate throws when `final`.
@@ -94,17 +88,6 @@ class Solver {
   }
 
  private:
-  // A message of another type on our channel is skipped (as LCM's typed
-  // subscriptions do), and reported once.
-  template <typename Message>
-  bool Decoded(const std::string& channel, const uint8_t* data, size_t size, Message* m) {
-    if (calib::Decode(data, static_cast<int>(size), m)) return true;
-    if (undecodable_++ == 0)
-      std::cerr << "agvcal-solver: ignoring messages on " << channel << " that are not "
-                << Message::getTypeName() << " (reported once)\n";
-    return false;
-  }
-
   void MaybeSolve() {
     if (data_.motions().size() < solved_at_ + every_) return;
     solved_at_ = data_.motions().size();
@@ -133,9 +116,7 @@ class Solver {
   lcm::LCM* lcm_;
   std::size_t every_ = 200, solved_at_ = 0;
   bool holding_solves_ = false;
-  int64_t undecodable_ = 0;
   int64_t last_residual_utime_ = 0;
-  agvcal_process::FirstError error_;
 };
 
 int Run(int argc, char** argv) {
@@ -144,39 +125,34 @@ int Run(int argc, char** argv) {
                               {"--time-offset"});
   if (const auto status = CheckUsage(args, kUsage, 1)) return *status;
   const calib::RobotDescription robot = calib::LoadRobotFile(args.positional[0]);
-  const calib::MotionSource source = MotionSourceOption(args, robot);
+  const calib::MotionSource source =
+      MotionSourceOption(args, {calib::MotionSource::kLidar2d, calib::MotionSource::kPose}, LiveMotionSource(robot))
+          .value();
   const double every = args.GetDouble("--every", 200);
   if (!(every >= 1)) throw calib::InputError("command line", "--every", "must be >= 1");
   calib::CalibrationOptions options;
   options.estimate_time_offset = args.Has("--time-offset");
 
-  const std::string url = args.Get("--lcm-url", "");
-  lcm::LCM lcm(url);
-  RequireGoodBus(lcm, url);
-  Solver solver(robot, source, options, &lcm);
+  BusSource bus(args.Get("--lcm-url", ""), "agvcal-solver");
+  bus.DeliverOncePerStamp();  // a message is used once, whether live, recovered or both
+  Solver solver(robot, source, options, &bus.lcm());
   solver.set_every(static_cast<std::size_t>(every));
-  const std::string motion_channel = source == calib::MotionSource::kPose
-                                         ? (robot.pose ? robot.pose->channel : calib::kPoseChannel)
-                                         : calib::kScanMatchChannel;
-  CatchUpInput input(&lcm, {calib::kWheelsChannel, motion_channel},
-                     [&solver](const std::string& channel, const uint8_t* data, size_t size) {
-                       solver.OnMessage(channel, data, size);
-                     });
-  Heartbeat heartbeat(&lcm, "solver");
+  solver.Subscribe(&bus);
+  Heartbeat heartbeat(&bus.lcm(), "solver");
   InstallStopHandlers();
   if (args.Has("--catch-up")) {
     solver.set_holding_solves(true);
-    input.CatchUp(args.Get("--catch-up", ""), "agvcal-solver", &heartbeat);
+    bus.CatchUp(args.Get("--catch-up", ""), &heartbeat);
     solver.set_holding_solves(false);
   }
-  while (!g_stop_requested) {
-    lcm.handleTimeout(100);
+  while (!bus.done()) {
+    bus.HandleNext(100);
     heartbeat.Beat("running");
   }
   // Messages already received when the stop came (e.g. the scan matcher's last
   // matches, sent just before it stopped) still count.
-  HandleQueued(lcm);
-  if (solver.error()) throw calib::InputError("bus", "message", *solver.error());
+  bus.HandleQueued();
+  if (bus.skipped() > 0) std::cerr << "agvcal-solver: " << bus.skipped() << " unusable messages skipped\n";
   const calib::CalibrationResult result = solver.Solve(true);
   if (args.Has("--out")) calib::WriteFileAtomically(args.Get("--out", ""), calib::CalibrationResultJson(result));
   std::cerr << "agvcal-solver: final solve on " << result.residual.intervals << " intervals\n";

@@ -59,7 +59,7 @@ RUN
 expect_status 0 "replay into agvcal-scanmatch + agvcal-recal, stopped with SIGINT" \
   timeout 180 scripts/netns-run bash "$TMP/run.sh"
 # Every message of the recording arrived (LCM drops what a busy process has not taken from
-# its queue unless the subscription keeps everything: SubscribeEveryMessage).
+# its queue unless the subscription keeps everything: BusSource).
 counts=$("$AGVCAL" info "$log" | awk '$1 == "WHEELS" || $1 == "SCAN" || $1 == "POSE" {printf "%s=%s ", $1, $3}')
 wheels=$(sed -n 's/.*WHEELS=\([0-9]*\).*/\1/p' <<< "$counts"); scans=$(sed -n 's/.*SCAN=\([0-9]*\).*/\1/p' <<< "$counts")
 poses=$(sed -n 's/.*POSE=\([0-9]*\).*/\1/p' <<< "$counts")

@@ -33,6 +33,7 @@
 #include "calib/core/kinematics.h"
 #include "calib/core/wheel_track.h"
 #include "calib/io/log_summary.h"
+#include "calib/io/message_source.h"
 #include "calib/io/messages.h"
 #include "calib/io/recording.h"
 #include "calib/match/scan_match.h"
@@ -173,23 +174,15 @@ int Stale(const std::string& log) {
 int ScanMatch(const std::string& log, const std::string& robot_file, const std::string& live) {
   const calib::RobotDescription robot = calib::LoadRobotFile(robot_file);
   calib::ScanMatchPipeline pipeline(robot);
-  calib::LogReader reader(log);
-  calib::LogEvent e;
-  while (reader.Next(&e)) {
-    if (e.channel == calib::kWheelsChannel) {
-      agvcal::wheel_state_t m;
-      if (calib::Decode(e.data.data(), int(e.data.size()), &m))
-        pipeline.AddWheels(calib::WheelSampleFromMessage(m, robot, log));
-    } else if (e.channel == robot.lidar2d->channel) {
-      agvcal::laser_scan_t m;
-      if (calib::Decode(e.data.data(), int(e.data.size()), &m))
-        pipeline.AddScan(calib::LaserScanFromMessage(m, log));
-    }
-  }
+  calib::RecordingSource recording(log);
+  calib::SubscribeWheels(&recording, robot, [&](const calib::WheelSample& s) { pipeline.AddWheels(s); });
+  calib::SubscribeScans(&recording, robot.lidar2d->channel, [&](calib::LaserScan s) { pipeline.AddScan(s); });
+  recording.HandleAll();
   pipeline.Finish();
   const std::vector<calib::SensorMotion> offline = pipeline.TakeResults();
   std::vector<std::vector<uint8_t>> live_messages;
   calib::LogReader live_reader(live);
+  calib::LogEvent e;
   while (live_reader.Next(&e))
     if (e.channel == calib::kScanMatchChannel) live_messages.push_back(e.data);
   Check(offline.size() > 20, "offline: " + std::to_string(offline.size()) + " keyframe matches");
@@ -217,7 +210,7 @@ int Fusion(const std::string& log, const std::string& robot_file, const std::str
                                                     " ODOM_FUSED messages, offline " + std::to_string(offline.size()));
   size_t same = 0;
   for (size_t i = 0; i < std::min(offline.size(), live_messages.size()); ++i)
-    same += calib::Encode(calib::FusedPoseMessage(offline[i])) == live_messages[i];
+    same += calib::Encode(calib::ToMessage(calib::ToStampedPose(offline[i]))) == live_messages[i];
   Check(same == offline.size(), std::to_string(same) + " identical to the offline result");
   return failures ? 1 : 0;
 }

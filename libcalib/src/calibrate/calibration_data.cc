@@ -6,15 +6,11 @@
 
 namespace calib {
 
-void CalibrationData::AddWheels(const agvcal::wheel_state_t& message, const std::string& origin) {
-  AddWheels(WheelSampleFromMessage(message, robot_, origin));
-}
-
 void CalibrationData::AddWheels(const WheelSample& sample) {
   if (!wheels_.Append(sample)) ++dropped_wheels_;
 }
 
-void CalibrationData::AddPose(const agvcal::pose2d_t& message) {
+void CalibrationData::AddPose(const StampedPose& message) {
   const bool finite = std::isfinite(message.x) && std::isfinite(message.y) && std::isfinite(message.theta);
   if (!finite || (last_pose_ && message.utime <= last_pose_->utime)) {
     ++dropped_poses_;
@@ -26,11 +22,9 @@ void CalibrationData::AddPose(const agvcal::pose2d_t& message) {
 
 void CalibrationData::AddMotion(const SensorMotion& motion) { motions_.push_back(motion); }
 
-void CalibrationData::AddImu(const agvcal::imu_t& message, const std::string& origin) {
-  imu_.push_back(ImuSampleFromMessage(message, origin));
-}
+void CalibrationData::AddImu(const ImuSample& sample) { imu_.push_back(sample); }
 
-std::optional<SensorMotion> PoseIntervals::Add(const agvcal::pose2d_t& pose) {
+std::optional<SensorMotion> PoseIntervals::Add(const StampedPose& pose) {
   if (!start_) {
     start_ = pose;
     return std::nullopt;
@@ -41,14 +35,14 @@ std::optional<SensorMotion> PoseIntervals::Add(const agvcal::pose2d_t& pose) {
   return motion;
 }
 
-SensorMotion MotionBetweenPoses(const agvcal::pose2d_t& from, const agvcal::pose2d_t& to) {
+SensorMotion MotionBetweenPoses(const StampedPose& from, const StampedPose& to) {
   SensorMotion m;
   m.utime_start = from.utime;
   m.utime_end = to.utime;
   m.delta = Between({from.x, from.y, from.theta}, {to.x, to.y, to.theta});
   m.inlier_fraction = 1.0;
-  const Eigen::Matrix3d c0 = Eigen::Map<const Eigen::Matrix<double, 3, 3, Eigen::RowMajor>>(from.cov);
-  const Eigen::Matrix3d c1 = Eigen::Map<const Eigen::Matrix<double, 3, 3, Eigen::RowMajor>>(to.cov);
+  const Eigen::Matrix3d c0 = Eigen::Map<const Eigen::Matrix<double, 3, 3, Eigen::RowMajor>>(from.cov.data());
+  const Eigen::Matrix3d c1 = Eigen::Map<const Eigen::Matrix<double, 3, 3, Eigen::RowMajor>>(to.cov.data());
   Eigen::Matrix3d sum = c0 + c1;
   if (!sum.allFinite() || sum.diagonal().minCoeff() <= 0.0) {
     sum = Eigen::Vector3d(1e-4, 1e-4, std::pow(0.5 * M_PI / 180.0, 2)).asDiagonal();

@@ -6,11 +6,9 @@
 
 #include <Eigen/Dense>
 
-#include "agvcal/imu_t.hpp"
-#include "agvcal/wheel_state_t.hpp"
 #include "calib/core/errors.h"
+#include "calib/io/message_source.h"
 #include "calib/io/messages.h"
-#include "calib/io/recording.h"
 
 namespace calib {
 
@@ -155,42 +153,35 @@ void FusedOdometry::Step(const WheelSample& sample, bool with_gyro) {
   last_ = sample;
 }
 
-agvcal::pose2d_t FusedPoseMessage(const FusedPose& pose) {
-  agvcal::pose2d_t m{};
-  m.utime = pose.utime;
-  m.x = pose.pose.x;
-  m.y = pose.pose.y;
-  m.theta = WrapAngle(pose.pose.theta);
-  for (double& c : m.cov) c = 0.0;
-  m.cov[8] = pose.heading_std * pose.heading_std;
-  return m;
+StampedPose ToStampedPose(const FusedPose& pose) {
+  StampedPose stamped;
+  stamped.utime = pose.utime;
+  stamped.x = pose.pose.x;
+  stamped.y = pose.pose.y;
+  stamped.theta = WrapAngle(pose.pose.theta);
+  stamped.cov[8] = pose.heading_std * pose.heading_std;
+  return stamped;
 }
 
 std::vector<FusedPose> FuseLog(const RobotDescription& robot, const std::string& log_path,
                                const FusedOdometryOptions& options) {
   FusedOdometry fused(robot, options);
-  const std::string imu_channel = robot.imu ? robot.imu->channel : kImuChannel;
   std::vector<FusedPose> poses;
-  LogReader reader(log_path);
-  LogEvent event;
-  while (reader.Next(&event)) {
-    const int size = static_cast<int>(event.data.size());
-    const std::string origin = log_path + ": event " + std::to_string(event.event_number);
-    if (event.channel == kWheelsChannel) {
-      agvcal::wheel_state_t m;
-      if (!Decode(event.data.data(), size, &m)) throw InputError(origin, "WHEELS", "does not decode as wheel_state_t");
-      fused.AddWheels(WheelSampleFromMessage(m, robot, origin));
-    } else if (event.channel == imu_channel) {
-      agvcal::imu_t m;
-      if (!Decode(event.data.data(), size, &m)) throw InputError(origin, imu_channel, "does not decode as imu_t");
-      fused.AddImu(ImuSampleFromMessage(m, origin));
-    } else {
-      continue;
-    }
+  auto take_poses = [&]() {
     for (const FusedPose& p : fused.TakePoses()) poses.push_back(p);
-  }
+  };
+  RecordingSource source(log_path);
+  SubscribeWheels(&source, robot, [&](const WheelSample& sample) {
+    fused.AddWheels(sample);
+    take_poses();
+  });
+  SubscribeImu(&source, ImuChannel(robot), [&](const ImuSample& sample) {
+    fused.AddImu(sample);
+    take_poses();
+  });
+  source.HandleAll();
   fused.Finish();
-  for (const FusedPose& p : fused.TakePoses()) poses.push_back(p);
+  take_poses();
   return poses;
 }
 

@@ -387,17 +387,6 @@ Estimate MountYaw(const std::vector<ImuSpan>& spans, const std::vector<ImuSample
 
 }  // namespace
 
-ImuSample ImuSampleFromMessage(const agvcal::imu_t& message, const std::string& origin) {
-  ImuSample s;
-  s.utime = message.utime;
-  s.rate = message.angular_velocity[2];
-  s.accel_x = message.linear_acceleration[0];
-  s.accel_y = message.linear_acceleration[1];
-  if (!std::isfinite(s.rate) || !std::isfinite(s.accel_x) || !std::isfinite(s.accel_y))
-    throw InputError(origin, "imu_t", "angular_velocity or linear_acceleration is not finite");
-  return s;
-}
-
 ImuCalibrationResult CalibrateWithImu(const RobotDescription& robot, const WheelTrack& wheels,
                                       std::vector<ImuSample> imu,
                                       const ImuCalibrationOptions& options,

@@ -12,8 +12,8 @@
 #include <yaml-cpp/yaml.h>
 
 #include "calib/calibrate/calibration_data.h"
+#include "calib/calibrate/recording_input.h"
 #include "calib/calibrate/result_files.h"
-#include "calib/calibrate/solve_log.h"
 #include "calib/core/errors.h"
 #include "calib/core/statistics.h"
 #include "calib/io/atomic_file.h"
@@ -335,7 +335,7 @@ void SegmentRecorder::AddMotion(const SensorMotion& motion) {
   Update();
 }
 
-void SegmentRecorder::AddPose(const agvcal::pose2d_t& pose) {
+void SegmentRecorder::AddPose(const StampedPose& pose) {
   if (last_pose_ && pose.utime <= last_pose_->utime) return;
   if (source_ == MotionSource::kPose) {
     if (std::optional<SensorMotion> motion = pose_intervals_.Add(pose)) motions_.push_back(*motion);
@@ -649,7 +649,7 @@ RecalRun RecalibrateLog(const RobotDescription& scan_robot, const CalibrationInU
   handlers.wheels = [&](const WheelSample& w) { recorder.AddWheels(w); };
   // Through the message, as the live process receives it.
   handlers.motion = [&](const SensorMotion& m) { recorder.AddMotion(FromMessage(ToMessage(m), log_path)); };
-  handlers.pose = [&](const agvcal::pose2d_t& p) { recorder.AddPose(p); };
+  handlers.pose = [&](const StampedPose& p) { recorder.AddPose(p); };
   handlers.event = [&]() {
     while (std::optional<SegmentBatch> batch = recorder.TakeBatch()) {
       RecalDecision d = Decide(*batch, run.in_use, source, config);

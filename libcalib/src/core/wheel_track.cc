@@ -3,50 +3,7 @@
 #include <algorithm>
 #include <cmath>
 
-#include "calib/core/errors.h"
-
 namespace calib {
-
-WheelSample WheelSampleFromMessage(const agvcal::wheel_state_t& message,
-                                   const RobotDescription& robot, const std::string& origin) {
-  WheelSample sample;
-  sample.utime = message.utime;
-  for (const std::string& role : WheelRoles(robot.drive)) {
-    const std::string& name = robot.wheel_name(role);
-    int index = -1;
-    for (int i = 0; i < message.num_wheels; ++i) {
-      if (message.name[i] == name) index = i;
-    }
-    if (index < 0) {
-      throw InputError(origin, "wheel_state_t",
-                       "no wheel named '" + name + "' (role " + role + " in " +
-                           robot.source_file + ")");
-    }
-    const double position = message.position[index];
-    const double steer = message.steer[index];
-    if (!std::isfinite(position) || !std::isfinite(steer)) {
-      throw InputError(origin, "wheel '" + name + "'", "position or steer is not finite");
-    }
-    sample.position.push_back(position);
-    sample.steer.push_back(steer);
-  }
-  return sample;
-}
-
-agvcal::wheel_state_t WheelStateMessage(const WheelSample& sample, const RobotDescription& robot,
-                                        const std::vector<double>& velocity) {
-  const std::vector<std::string>& roles = WheelRoles(robot.drive);
-  agvcal::wheel_state_t msg{};
-  msg.utime = sample.utime;
-  msg.num_wheels = static_cast<int32_t>(roles.size());
-  for (std::size_t i = 0; i < roles.size(); ++i) {
-    msg.name.push_back(robot.wheel_name(roles[i]));
-    msg.position.push_back(sample.position.at(i));
-    msg.velocity.push_back(velocity.empty() ? std::nan("") : velocity.at(i));
-    msg.steer.push_back(i < sample.steer.size() ? sample.steer[i] : 0.0);
-  }
-  return msg;
-}
 
 bool WheelTrack::Append(const WheelSample& sample) {
   if (!samples_.empty() && sample.utime <= samples_.back().utime) return false;

@@ -14,13 +14,12 @@
 #include "calib/calibrate/heldout.h"
 #include "calib/calibrate/interval_model.h"
 #include "calib/calibrate/recalibration.h"
-#include "calib/calibrate/solve_log.h"
+#include "calib/calibrate/recording_input.h"
 #include "calib/core/errors.h"
+#include "calib/core/laser_scan.h"
 #include "calib/core/statistics.h"
 #include "calib/diagnose/selection.h"
-#include "calib/io/messages.h"
-#include "calib/io/recording.h"
-#include "calib/match/laser_scan.h"
+#include "calib/io/message_source.h"
 #include "diagnose/diagnose_internal.h"
 #include "diagnose/diagnose_model.h"
 
@@ -1314,7 +1313,6 @@ void ReadMotions(const RobotDescription& robot, const std::string& log_path,
   std::vector<int64_t> stamps;
   std::vector<double> leads;  // per scan: mean time of the beams with a return after the stamp, s
   double scan_time = 0;
-  const std::string scan_channel = robot.lidar2d ? robot.lidar2d->channel : kScanChannel;
   auto check_scan = [&](LaserScan* scan) {
     ++scans;
     zero_timing += scan->time_increment == 0.0;
@@ -1384,16 +1382,9 @@ DiagnoseData ReadDiagnoseData(const RobotDescription& robot, const std::string& 
       // Too little to calibrate: keep the nominal de-skew; Diagnose reports the problem.
     }
   }
-  LogReader reader(log_path);
-  LogEvent event;
-  while (reader.Next(&event)) {
-    if (event.channel != kDriveCmdChannel) continue;
-    agvcal::drive_command_t m;
-    const std::string place = "event " + std::to_string(event.event_number) + " (" + event.channel + ")";
-    if (!Decode(event.data.data(), static_cast<int>(event.data.size()), &m))
-      throw InputError(log_path, place, "does not decode as drive_command_t");
-    out.commands.push_back(FromMessage(m, robot, log_path + ": " + place));
-  }
+  RecordingSource commands(log_path);
+  SubscribeDriveCommands(&commands, robot, [&](const DriveCommand& c) { out.commands.push_back(c); });
+  commands.HandleAll();
   std::stable_sort(out.commands.begin(), out.commands.end(),
                    [](const DriveCommand& a, const DriveCommand& b) { return a.utime < b.utime; });
   return out;

@@ -9,8 +9,7 @@
 
 #include "calib/core/errors.h"
 #include "calib/io/cloud_file.h"
-#include "calib/io/messages.h"
-#include "calib/io/recording.h"
+#include "calib/io/message_source.h"
 
 namespace calib {
 
@@ -42,7 +41,7 @@ GroundSession::GroundSession(const RobotDescription& robot, GroundOptions option
   }
 }
 
-void GroundSession::OnMountAngle(const agvcal::mount_angle_t& angle) {
+void GroundSession::OnMountAngle(const MountAngle& angle) {
   angles_.emplace_back(angle.utime, angle.angle);
   // Keep what a late cloud could still need: the last 5 s (robot clock).
   const int64_t oldest = angle.utime - 5000000;
@@ -50,7 +49,7 @@ void GroundSession::OnMountAngle(const agvcal::mount_angle_t& angle) {
     angles_.pop_front();
 }
 
-const FrameFit* GroundSession::OnCloud(const agvcal::point_cloud_t& cloud) {
+const FrameFit* GroundSession::OnCloud(const PointCloud& cloud) {
   ++clouds_;
   last_utime_ = cloud.utime;
   double angle = 0.0;
@@ -68,74 +67,47 @@ const FrameFit* GroundSession::OnCloud(const agvcal::point_cloud_t& cloud) {
     last_angle_ = angle;
     last_sector_ = calibrator_.SectorOf(angle);
   }
-  std::vector<float> xyz;
-  const size_t n = std::min(cloud.xyz.size(), static_cast<size_t>(std::max(cloud.npoints, 0)));
-  xyz.reserve(3 * n);
-  for (size_t i = 0; i < n; ++i) {
-    const auto& p = cloud.xyz[i];
-    if (p.size() < 3) continue;
-    xyz.insert(xyz.end(), {p[0], p[1], p[2]});
-  }
-  return &calibrator_.AddFrame(xyz.data(), xyz.size() / 3, angle);
+  return &calibrator_.AddFrame(cloud.xyz.data(), cloud.xyz.size() / 3, angle);
 }
 
-bool GroundSession::OnMessage(const std::string& channel, const void* data, int size,
-                              const std::string& origin, const std::string& place) {
-  if (channel == cloud_channel_) {
-    agvcal::point_cloud_t cloud;
-    if (!Decode(data, size, &cloud))
-      throw InputError(origin, place + " (" + channel + ")", "does not decode as point_cloud_t");
+void GroundSession::Subscribe(MessageSource* source, std::function<void()> after_cloud) {
+  SubscribeClouds(source, cloud_channel_, [this, after_cloud = std::move(after_cloud)](const PointCloud& cloud) {
     OnCloud(cloud);
-    return true;
-  }
-  if (!angle_channel_.empty() && channel == angle_channel_) {
-    agvcal::mount_angle_t angle;
-    if (!Decode(data, size, &angle))
-      throw InputError(origin, place + " (" + channel + ")", "does not decode as mount_angle_t");
-    OnMountAngle(angle);
-    return true;
-  }
-  return false;
+    if (after_cloud) after_cloud();
+  });
+  if (!angle_channel_.empty())
+    SubscribeMountAngles(source, angle_channel_, [this](const MountAngle& angle) { OnMountAngle(angle); });
 }
 
-agvcal::ground_estimate_t GroundSession::EstimateMessage() const {
-  agvcal::ground_estimate_t msg{};
-  msg.utime = last_utime_;
-  msg.frames_seen = calibrator_.frames_seen();
-  msg.sector = angle_channel_.empty() ? -1 : last_sector_;
-  msg.angle = angle_channel_.empty() ? 0.0 : last_angle_;
-  msg.num_sectors = calibrator_.num_sectors();
+GroundEstimate GroundSession::CurrentEstimate() const {
+  GroundEstimate out;
+  out.utime = last_utime_;
+  out.frames_seen = calibrator_.frames_seen();
+  out.sector = angle_channel_.empty() ? -1 : last_sector_;
+  out.angle = angle_channel_.empty() ? 0.0 : last_angle_;
+  out.num_sectors = calibrator_.num_sectors();
   for (int s = 0; s < calibrator_.num_sectors(); ++s) {
     try {
       calibrator_.Estimate(s);
-      ++msg.sectors_done;
+      ++out.sectors_done;
     } catch (const UnobservableError&) {
     }
   }
   try {
     if (!angle_channel_.empty() && last_sector_ < 0) {
-      msg.status = "waiting: no mount angle for the newest cloud";
-      return msg;
+      out.status = "waiting: no mount angle for the newest cloud";
+      return out;
     }
     const MountEstimate e = calibrator_.Estimate(angle_channel_.empty() ? -1 : last_sector_);
-    msg.status = "ok";
-    msg.frames = e.frames;
-    msg.inliers = e.inliers;
-    msg.z = e.value.z, msg.pitch = e.value.pitch, msg.roll = e.value.roll;
-    msg.z_std = e.std.z, msg.pitch_std = e.std.pitch, msg.roll_std = e.std.roll;
+    out.status = "ok";
+    out.frames = e.frames;
+    out.inliers = e.inliers;
+    out.z = e.value.z, out.pitch = e.value.pitch, out.roll = e.value.roll;
+    out.z_std = e.std.z, out.pitch_std = e.std.pitch, out.roll_std = e.std.roll;
   } catch (const UnobservableError& e) {
-    msg.status = std::string("refused: ") + e.what();
+    out.status = std::string("refused: ") + e.what();
   }
-  return msg;
-}
-
-agvcal::point_cloud_t CloudMessage(const std::vector<float>& xyz, int64_t utime) {
-  agvcal::point_cloud_t msg{};
-  msg.utime = utime;
-  msg.npoints = static_cast<int32_t>(xyz.size() / 3);
-  msg.xyz.reserve(xyz.size() / 3);
-  for (size_t i = 0; i + 2 < xyz.size(); i += 3) msg.xyz.push_back({xyz[i], xyz[i + 1], xyz[i + 2]});
-  return msg;
+  return out;
 }
 
 GroundResult CalibrateGroundFile(const RobotDescription& robot, const GroundOptions& options,
@@ -157,13 +129,9 @@ GroundResult CalibrateGroundFile(const RobotDescription& robot, const GroundOpti
     return calibrator.Result(with_grid);
   }
   info.kind = "log";
-  LogReader reader(path);
-  LogEvent event;
-  while (reader.Next(&event)) {
-    session.OnMessage(event.channel, event.data.data(), static_cast<int>(event.data.size()), path,
-                      "event " + std::to_string(event.event_number) + " at byte " +
-                          std::to_string(event.offset));
-  }
+  RecordingSource source(path);
+  session.Subscribe(&source);
+  source.HandleAll();
   info.clouds = session.clouds();
   if (input) *input = info;
   if (session.clouds() == 0)

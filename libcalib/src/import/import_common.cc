@@ -78,14 +78,6 @@ void RequireDrive(const RobotDescription& robot, DriveType drive, const std::str
   }
 }
 
-std::string ScanChannel(const RobotDescription& robot) {
-  return robot.lidar2d ? robot.lidar2d->channel : kScanChannel;
-}
-
-std::string PoseChannel(const RobotDescription& robot) {
-  return robot.pose ? robot.pose->channel : kPoseChannel;
-}
-
 std::string FieldName(std::size_t index, const std::string& what) {
   return "field " + std::to_string(index + 1) + " (" + what + ")";
 }

@@ -74,10 +74,6 @@ void SetScanTimes(std::vector<agvcal::laser_scan_t>* scans, double period);
 // Throws InputError naming the robot file unless it describes a `drive` robot.
 void RequireDrive(const RobotDescription& robot, DriveType drive, const std::string& format);
 
-// Channels from the robot file (spec/robot.md defaults SCAN, POSE).
-std::string ScanChannel(const RobotDescription& robot);
-std::string PoseChannel(const RobotDescription& robot);
-
 // "field N (what)" with N 1-based, for error messages.
 std::string FieldName(std::size_t index, const std::string& what);
 

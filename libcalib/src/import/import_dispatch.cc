@@ -1,6 +1,7 @@
 // `agvcal import FORMAT INPUT`: the format table (importers.h).
 #include "calib/core/errors.h"
 #include "calib/import/importers.h"
+#include "calib/io/messages.h"
 #include "import/import_common.h"
 
 namespace calib {
@@ -41,7 +42,7 @@ ImportSummary Import(const std::string& format, const std::string& input,
   if (format == "mines") return ImportMines(input, *robot, sink);
   if (format == "lego") return ImportLego(input, LegoScanPathFor(input), *robot, sink);
   if (format == "optiodom") return ImportOptiOdom(input, *robot, sink);
-  return ImportPoseCsv(input, robot ? import_internal::PoseChannel(*robot) : "POSE", sink);
+  return ImportPoseCsv(input, robot ? PoseChannel(*robot) : "POSE", sink);
 }
 
 }  // namespace calib

@@ -1,10 +1,165 @@
 #include "calib/io/messages.h"
 
+#include <algorithm>
 #include <cmath>
 
 #include "calib/core/errors.h"
 
 namespace calib {
+
+std::string ScanChannel(const RobotDescription& robot) {
+  return robot.lidar2d ? robot.lidar2d->channel : kScanChannel;
+}
+
+std::string PoseChannel(const RobotDescription& robot) {
+  return robot.pose ? robot.pose->channel : kPoseChannel;
+}
+
+std::string ImuChannel(const RobotDescription& robot) {
+  return robot.imu ? robot.imu->channel : kImuChannel;
+}
+
+WheelSample WheelSampleFromMessage(const agvcal::wheel_state_t& message,
+                                   const RobotDescription& robot, const std::string& origin) {
+  WheelSample sample;
+  sample.utime = message.utime;
+  for (const std::string& role : WheelRoles(robot.drive)) {
+    const std::string& name = robot.wheel_name(role);
+    int index = -1;
+    for (int i = 0; i < message.num_wheels; ++i) {
+      if (message.name[i] == name) index = i;
+    }
+    if (index < 0) {
+      throw InputError(origin, "wheel_state_t",
+                       "no wheel named '" + name + "' (role " + role + " in " +
+                           robot.source_file + ")");
+    }
+    const double position = message.position[index];
+    const double steer = message.steer[index];
+    if (!std::isfinite(position) || !std::isfinite(steer)) {
+      throw InputError(origin, "wheel '" + name + "'", "position or steer is not finite");
+    }
+    sample.position.push_back(position);
+    sample.steer.push_back(steer);
+  }
+  return sample;
+}
+
+agvcal::wheel_state_t WheelStateMessage(const WheelSample& sample, const RobotDescription& robot,
+                                        const std::vector<double>& velocity) {
+  const std::vector<std::string>& roles = WheelRoles(robot.drive);
+  agvcal::wheel_state_t msg{};
+  msg.utime = sample.utime;
+  msg.num_wheels = static_cast<int32_t>(roles.size());
+  for (std::size_t i = 0; i < roles.size(); ++i) {
+    msg.name.push_back(robot.wheel_name(roles[i]));
+    msg.position.push_back(sample.position.at(i));
+    msg.velocity.push_back(velocity.empty() ? std::nan("") : velocity.at(i));
+    msg.steer.push_back(i < sample.steer.size() ? sample.steer[i] : 0.0);
+  }
+  return msg;
+}
+
+LaserScan LaserScanFromMessage(const agvcal::laser_scan_t& message, const std::string& origin) {
+  const std::string place = "laser_scan_t utime " + std::to_string(message.utime);
+  auto fail = [&](const std::string& problem) { throw InputError(origin, place, problem); };
+  if (message.nranges < 0 || static_cast<size_t>(message.nranges) != message.ranges.size())
+    fail("nranges " + std::to_string(message.nranges) + " but " +
+         std::to_string(message.ranges.size()) + " ranges");
+  if (message.nintensities != 0 && message.nintensities != message.nranges)
+    fail("nintensities " + std::to_string(message.nintensities) + ", expected 0 or nranges " +
+         std::to_string(message.nranges));
+  if (message.intensities.size() != static_cast<size_t>(std::max(message.nintensities, 0)))
+    fail("nintensities " + std::to_string(message.nintensities) + " but " +
+         std::to_string(message.intensities.size()) + " intensities");
+  const std::pair<const char*, float> fields[] = {{"angle_min", message.angle_min},
+                                                  {"angle_increment", message.angle_increment},
+                                                  {"time_increment", message.time_increment},
+                                                  {"scan_time", message.scan_time}};
+  for (const auto& [name, value] : fields)
+    if (!std::isfinite(value)) fail(std::string(name) + " is not finite");
+  if (message.angle_increment == 0.0f && message.nranges > 1) fail("angle_increment is 0");
+  if (message.time_increment < 0.0f) fail("time_increment is negative");
+  if (message.scan_time < 0.0f) fail("scan_time is negative");
+  if (double(message.time_increment) * std::max(message.nranges - 1, 0) > kMaxScanDuration)
+    fail("beams span " + std::to_string(double(message.time_increment) * (message.nranges - 1)) +
+         " s (time_increment " + std::to_string(message.time_increment) + " s per beam)");
+  if (!(message.range_min >= 0.0f) || !(message.range_max > message.range_min))
+    fail("range interval [" + std::to_string(message.range_min) + ", " +
+         std::to_string(message.range_max) + "] is empty or not a number");
+
+  LaserScan scan;
+  scan.utime = message.utime;
+  scan.angle_min = message.angle_min;
+  scan.angle_increment = message.angle_increment;
+  scan.time_increment = message.time_increment;
+  scan.scan_time = message.scan_time;
+  scan.range_min = message.range_min;
+  scan.range_max = message.range_max;
+  scan.ranges = message.ranges;
+  return scan;
+}
+
+ImuSample ImuSampleFromMessage(const agvcal::imu_t& message, const std::string& origin) {
+  ImuSample s;
+  s.utime = message.utime;
+  s.rate = message.angular_velocity[2];
+  s.accel_x = message.linear_acceleration[0];
+  s.accel_y = message.linear_acceleration[1];
+  if (!std::isfinite(s.rate) || !std::isfinite(s.accel_x) || !std::isfinite(s.accel_y))
+    throw InputError(origin, "imu_t", "angular_velocity or linear_acceleration is not finite");
+  return s;
+}
+
+StampedPose PoseFromMessage(const agvcal::pose2d_t& message) {
+  StampedPose pose;
+  pose.utime = message.utime;
+  pose.x = message.x;
+  pose.y = message.y;
+  pose.theta = message.theta;
+  std::copy(std::begin(message.cov), std::end(message.cov), pose.cov.begin());
+  return pose;
+}
+
+agvcal::pose2d_t ToMessage(const StampedPose& pose) {
+  agvcal::pose2d_t m{};
+  m.utime = pose.utime;
+  m.x = pose.x;
+  m.y = pose.y;
+  m.theta = pose.theta;
+  std::copy(pose.cov.begin(), pose.cov.end(), m.cov);
+  return m;
+}
+
+PointCloud CloudFromMessage(const agvcal::point_cloud_t& message) {
+  PointCloud cloud;
+  cloud.utime = message.utime;
+  const size_t n = std::min(message.xyz.size(), static_cast<size_t>(std::max(message.npoints, 0)));
+  cloud.xyz.reserve(3 * n);
+  for (size_t i = 0; i < n; ++i) {
+    const auto& p = message.xyz[i];
+    if (p.size() < 3) continue;
+    cloud.xyz.insert(cloud.xyz.end(), {p[0], p[1], p[2]});
+  }
+  return cloud;
+}
+
+agvcal::point_cloud_t ToMessage(const PointCloud& cloud) {
+  agvcal::point_cloud_t msg{};
+  msg.utime = cloud.utime;
+  msg.npoints = static_cast<int32_t>(cloud.xyz.size() / 3);
+  msg.xyz.reserve(cloud.xyz.size() / 3);
+  for (size_t i = 0; i + 2 < cloud.xyz.size(); i += 3)
+    msg.xyz.push_back({cloud.xyz[i], cloud.xyz[i + 1], cloud.xyz[i + 2]});
+  return msg;
+}
+
+MountAngle MountAngleFromMessage(const agvcal::mount_angle_t& message) {
+  MountAngle angle;
+  angle.utime = message.utime;
+  angle.angle = message.angle;
+  return angle;
+}
 
 agvcal::drive_command_t ToMessage(const DriveCommand& command, const RobotDescription& robot,
                                   int64_t seq) {

@@ -1,20 +1,18 @@
 #pragma once
 // Gathers what the calibration needs from a stream of messages: the encoder
 // track and the sensor motions. The live solver feeds it from the bus and
-// `agvcal solve` from a log, so both see the same data and give the same
-// numbers. Messages whose stamps go backwards or repeat are dropped and counted.
+// `agvcal solve` from a log (both through calib/io/message_source.h), so both
+// see the same data and give the same numbers. Samples whose stamps go
+// backwards or repeat are dropped and counted.
 
 #include <cstdint>
 #include <optional>
 #include <string>
 #include <vector>
 
-#include "agvcal/imu_t.hpp"
-#include "agvcal/pose2d_t.hpp"
-#include "agvcal/wheel_state_t.hpp"
 #include "calib/calibrate/calibration.h"
-#include "calib/calibrate/imu_calibration.h"
 #include "calib/core/robot.h"
+#include "calib/core/sensor_data.h"
 #include "calib/core/sensor_motion.h"
 #include "calib/core/wheel_track.h"
 
@@ -31,26 +29,24 @@ class PoseIntervals {
  public:
   // The motion since the last one ended, once it spans kMinPoseIntervalS (the
   // first pose only starts one). The caller drops non-finite and repeated stamps.
-  std::optional<SensorMotion> Add(const agvcal::pose2d_t& pose);
+  std::optional<SensorMotion> Add(const StampedPose& pose);
 
  private:
-  std::optional<agvcal::pose2d_t> start_;
+  std::optional<StampedPose> start_;
 };
 
 class CalibrationData {
  public:
   explicit CalibrationData(const RobotDescription& robot) : robot_(robot) {}
 
-  // Throws InputError (naming `origin`) for a wheel state without the robot's wheels.
-  void AddWheels(const agvcal::wheel_state_t& message, const std::string& origin);
   void AddWheels(const WheelSample& sample);
-  // An external pose (PoseIntervals turns the stream into SensorMotions).
-  void AddPose(const agvcal::pose2d_t& message);
+  // An external pose (PoseIntervals turns the stream into SensorMotions); one not finite
+  // or not newer than the last is dropped and counted.
+  void AddPose(const StampedPose& pose);
   // A scan-matched (or otherwise measured) sensor motion.
   void AddMotion(const SensorMotion& motion);
-  // An IMU sample (the IMU-referenced calibration); throws InputError (naming
-  // `origin`) for a non-finite reading.
-  void AddImu(const agvcal::imu_t& message, const std::string& origin);
+  // An IMU sample (the IMU-referenced calibration).
+  void AddImu(const ImuSample& sample);
 
   const WheelTrack& wheels() const { return wheels_; }
   const std::vector<SensorMotion>& motions() const { return motions_; }
@@ -63,7 +59,7 @@ class CalibrationData {
   WheelTrack wheels_;
   std::vector<SensorMotion> motions_;
   std::vector<ImuSample> imu_;
-  std::optional<agvcal::pose2d_t> last_pose_;
+  std::optional<StampedPose> last_pose_;
   PoseIntervals pose_intervals_;
   int64_t dropped_wheels_ = 0, dropped_poses_ = 0;
 };
@@ -71,6 +67,6 @@ class CalibrationData {
 // The motion between two poses of an external source, with its covariance in
 // the first pose's frame (from the poses' own covariances, or 1 cm / 0.5 deg
 // when they are not given: the solver rescales it from the residuals).
-SensorMotion MotionBetweenPoses(const agvcal::pose2d_t& from, const agvcal::pose2d_t& to);
+SensorMotion MotionBetweenPoses(const StampedPose& from, const StampedPose& to);
 
 }  // namespace calib

@@ -30,10 +30,10 @@
 
 #include <Eigen/Core>
 
-#include "agvcal/pose2d_t.hpp"
 #include "calib/calibrate/imu_calibration.h"
 #include "calib/core/robot.h"
 #include "calib/core/se2.h"
+#include "calib/core/sensor_data.h"
 #include "calib/core/wheel_track.h"
 
 namespace calib {
@@ -60,9 +60,9 @@ struct FusedPose {
 // at the first sample's rate.
 double IntegrateGyro(const std::deque<ImuSample>& samples, double t0, double t1);
 
-// The pose2d_t of a fused pose (channel ODOM_FUSED): theta wrapped, the
-// heading variance in cov[8], the rest of cov zero (not estimated).
-agvcal::pose2d_t FusedPoseMessage(const FusedPose& pose);
+// A fused pose as published (pose2d_t on ODOM_FUSED, calib/io/messages.h): theta
+// wrapped, the heading variance in cov[8], the rest of cov zero (not estimated).
+StampedPose ToStampedPose(const FusedPose& pose);
 
 // Feeds a recording's WHEELS and IMU (robot file's channel) in log order, as the
 // live process receives them; the poses in order. Throws InputError for an

@@ -31,23 +31,12 @@
 
 #include <Eigen/Core>
 
-#include "agvcal/imu_t.hpp"
 #include "calib/calibrate/calibration.h"
 #include "calib/core/robot.h"
+#include "calib/core/sensor_data.h"
 #include "calib/core/wheel_track.h"
 
 namespace calib {
-
-// One IMU sample in the sensor frame: rad/s about z, m/s^2 along x and y.
-struct ImuSample {
-  int64_t utime = 0;
-  double rate = 0.0;
-  double accel_x = 0.0, accel_y = 0.0;
-};
-
-// The sample of an imu_t message; throws InputError (origin = e.g. "log: event
-// 12") when a reading is not finite.
-ImuSample ImuSampleFromMessage(const agvcal::imu_t& message, const std::string& origin);
 
 struct ImuCalibrationOptions {
   std::optional<double> distance_m;        // measured length of the first straight motion

@@ -42,11 +42,11 @@
 
 #include <Eigen/Core>
 
-#include "agvcal/pose2d_t.hpp"
 #include "calib/calibrate/calibration.h"
 #include "calib/calibrate/calibration_data.h"
 #include "calib/core/kinematics.h"
 #include "calib/core/robot.h"
+#include "calib/core/sensor_data.h"
 #include "calib/core/sensor_motion.h"
 #include "calib/core/wheel_track.h"
 
@@ -123,7 +123,7 @@ class SegmentRecorder {
   void AddWheels(const WheelSample& sample);
   void AddMotion(const SensorMotion& motion);  // scan matches (2D lidar source)
   // Zones; with the pose source also the sensor motions.
-  void AddPose(const agvcal::pose2d_t& pose);
+  void AddPose(const StampedPose& pose);
 
   // The next `segments_per_decision` complete segments, once there are that many.
   std::optional<SegmentBatch> TakeBatch();
@@ -141,7 +141,7 @@ class SegmentRecorder {
   std::unique_ptr<DriveModel> model_;  // nominal, for distance windows
   std::deque<WheelSample> wheels_;
   std::deque<SensorMotion> motions_;
-  std::optional<agvcal::pose2d_t> last_pose_;
+  std::optional<StampedPose> last_pose_;
   PoseIntervals pose_intervals_;
   std::optional<Segment> open_;
   std::deque<Segment> closed_;  // waiting for their data

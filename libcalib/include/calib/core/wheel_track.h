@@ -7,7 +7,6 @@
 #include <string>
 #include <vector>
 
-#include "agvcal/wheel_state_t.hpp"
 #include "calib/core/kinematics.h"
 #include "calib/core/robot.h"
 #include "calib/core/se2.h"
@@ -19,17 +18,6 @@ struct WheelSample {
   std::vector<double> position;  // accumulated drive rotation per role, rad
   std::vector<double> steer;     // raw steering reading per role, rad (0 if not steered)
 };
-
-// The sample of a wheel_state_t in the robot's role order. Throws InputError
-// (origin = e.g. "log.lcm: event 1234") when a wheel of the robot is missing or
-// a reading is not finite.
-WheelSample WheelSampleFromMessage(const agvcal::wheel_state_t& message,
-                                   const RobotDescription& robot, const std::string& origin);
-
-// The message of a sample, wheels named as in the robot file: the inverse of
-// WheelSampleFromMessage. `velocity` (rad/s, role order) may be empty: NaN, not reported.
-agvcal::wheel_state_t WheelStateMessage(const WheelSample& sample, const RobotDescription& robot,
-                                        const std::vector<double>& velocity = {});
 
 class WheelTrack {
  public:

@@ -3,23 +3,41 @@
 // clouds (point_cloud_t on the robot file's lidar3d.channel) and, for a lidar
 // that turns on its mount, the angle it stands at (mount_angle_t on
 // lidar3d.rotation.channel). The live process agvcal-ground and the offline
-// `agvcal ground` both go through GroundSession, so a recording gives the
+// `agvcal ground` both subscribe a GroundSession to a message source
+// (calib/io/message_source.h: the bus, a recording), so a recording gives the
 // same numbers either way. Also: reading a whole recording or a cloud file,
 // and the RESULT.json of spec/cli.md.
 
 #include <cstdint>
 #include <deque>
+#include <functional>
 #include <string>
 #include <utility>
 #include <vector>
 
-#include "agvcal/ground_estimate_t.hpp"
-#include "agvcal/mount_angle_t.hpp"
-#include "agvcal/point_cloud_t.hpp"
 #include "calib/core/robot.h"
+#include "calib/core/sensor_data.h"
 #include "calib/ground/ground.h"
 
 namespace calib {
+
+class MessageSource;  // calib/io/message_source.h
+
+// The state of a session after a cloud (what GROUND_ESTIMATE, ground_estimate_t,
+// carries): the estimate so far, or why there is none yet.
+struct GroundEstimate {
+  int64_t utime = 0;        // of the newest cloud
+  std::string status;       // "ok", "waiting: ..." or "refused: ..."
+  int frames_seen = 0;      // clouds received
+  int frames = 0;           // clouds whose floor fit went into the estimate
+  double inliers = 0.0;
+  double z = 0.0, pitch = 0.0, roll = 0.0;              // m, rad
+  double z_std = 0.0, pitch_std = 0.0, roll_std = 0.0;  // one sigma
+  int sector = 0;           // of the newest cloud's mount angle; -1 for a fixed lidar
+  double angle = 0.0;       // rad, the newest cloud's mount angle (0 for a fixed lidar)
+  int sectors_done = 0;     // sectors with an estimate
+  int num_sectors = 0;      // 0 for a fixed lidar
+};
 
 class GroundSession {
  public:
@@ -29,15 +47,14 @@ class GroundSession {
   // One cloud; for a rotating lidar it takes the newest angle stamped at or
   // before the cloud (not older than rotation.max_age_s), else it is skipped.
   // Returns the frame's fit, or nullptr for a skipped frame.
-  const FrameFit* OnCloud(const agvcal::point_cloud_t& cloud);
-  void OnMountAngle(const agvcal::mount_angle_t& angle);
-  // Decodes and dispatches an encoded message by channel; false for a channel
-  // it does not use. A message that does not decode is an InputError(origin, place).
-  bool OnMessage(const std::string& channel, const void* data, int size, const std::string& origin,
-                 const std::string& place);
+  const FrameFit* OnCloud(const PointCloud& cloud);
+  void OnMountAngle(const MountAngle& angle);
+  // Subscribes OnCloud and OnMountAngle to the session's channels on `source`;
+  // `after_cloud` (may be empty) runs after each cloud.
+  void Subscribe(MessageSource* source, std::function<void()> after_cloud = nullptr);
 
   // The state for GROUND_ESTIMATE (never throws; a refusal is in `status`).
-  agvcal::ground_estimate_t EstimateMessage() const;
+  GroundEstimate CurrentEstimate() const;
 
   const GroundCalibrator& calibrator() const { return calibrator_; }
   const std::string& cloud_channel() const { return cloud_channel_; }
@@ -54,10 +71,6 @@ class GroundSession {
   double last_angle_ = 0.0;
   int last_sector_ = -1;
 };
-
-// A cloud message (CLOUD, spec/messages.md) holding `xyz` (interleaved, sensor
-// frame, m), e.g. a PCD or KITTI frame read by calib/io/cloud_file.h, for a recording.
-agvcal::point_cloud_t CloudMessage(const std::vector<float>& xyz, int64_t utime);
 
 // What a run over a file read.
 struct GroundInput {

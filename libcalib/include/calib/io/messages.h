@@ -8,10 +8,19 @@
 #include <vector>
 
 #include "agvcal/drive_command_t.hpp"
+#include "agvcal/imu_t.hpp"
+#include "agvcal/laser_scan_t.hpp"
+#include "agvcal/mount_angle_t.hpp"
+#include "agvcal/point_cloud_t.hpp"
+#include "agvcal/pose2d_t.hpp"
 #include "agvcal/scan_match_t.hpp"
+#include "agvcal/wheel_state_t.hpp"
 #include "calib/core/drive_command.h"
+#include "calib/core/laser_scan.h"
 #include "calib/core/robot.h"
+#include "calib/core/sensor_data.h"
 #include "calib/core/sensor_motion.h"
+#include "calib/core/wheel_track.h"
 #include "calib/io/message_layout.h"
 
 namespace calib {
@@ -36,6 +45,46 @@ inline constexpr const char* kOdomFusedChannel = "ODOM_FUSED";
 inline constexpr const char* kMountAngleChannel = "LIDAR3D_ANGLE";
 // The operator's stop (agvcal::operator_stop_t): the commander holds the robot until released.
 inline constexpr const char* kStopChannel = "STOP";
+
+// The channels of a robot's sensors: the robot file's, else the default above.
+std::string ScanChannel(const RobotDescription& robot);  // lidar2d
+std::string PoseChannel(const RobotDescription& robot);  // pose
+std::string ImuChannel(const RobotDescription& robot);   // imu
+
+// The sample of a wheel_state_t in the robot's role order. Throws InputError
+// (origin = e.g. "log.lcm: event 1234") when a wheel of the robot is missing or
+// a reading is not finite.
+WheelSample WheelSampleFromMessage(const agvcal::wheel_state_t& message,
+                                   const RobotDescription& robot, const std::string& origin);
+
+// The message of a sample, wheels named as in the robot file: the inverse of
+// WheelSampleFromMessage. `velocity` (rad/s, role order) may be empty: NaN, not reported.
+agvcal::wheel_state_t WheelStateMessage(const WheelSample& sample, const RobotDescription& robot,
+                                        const std::vector<double>& velocity = {});
+
+// The scan of a message. Throws InputError (file = `origin`, e.g. "log.lcm:
+// event 1234") when nranges or nintensities disagree with the arrays, an
+// angle or time field is not finite, angle_increment is 0 with more than one
+// beam, time_increment or scan_time is negative, the beams span more than
+// kMaxScanDuration (time_increment in the wrong unit), or the range interval
+// is empty or not a number.
+LaserScan LaserScanFromMessage(const agvcal::laser_scan_t& message, const std::string& origin);
+
+// The sample of an imu_t message; throws InputError (origin = e.g. "log: event
+// 12") when a reading is not finite.
+ImuSample ImuSampleFromMessage(const agvcal::imu_t& message, const std::string& origin);
+
+// A pose2d_t (POSE, ODOM_FUSED) and back, field for field (not validated: the
+// consumers drop non-finite poses).
+StampedPose PoseFromMessage(const agvcal::pose2d_t& message);
+agvcal::pose2d_t ToMessage(const StampedPose& pose);
+
+// A point_cloud_t (CLOUD) and back: the first npoints points (interleaved xyz).
+PointCloud CloudFromMessage(const agvcal::point_cloud_t& message);
+agvcal::point_cloud_t ToMessage(const PointCloud& cloud);
+
+// A mount_angle_t (lidar3d.rotation.channel).
+MountAngle MountAngleFromMessage(const agvcal::mount_angle_t& message);
 
 // A command for the robot's wheels, named as in the robot file.
 agvcal::drive_command_t ToMessage(const DriveCommand& command, const RobotDescription& robot,

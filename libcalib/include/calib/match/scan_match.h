@@ -28,7 +28,7 @@
 #include "calib/core/se2.h"
 #include "calib/core/sensor_motion.h"
 #include "calib/core/wheel_track.h"
-#include "calib/match/laser_scan.h"
+#include "calib/core/laser_scan.h"
 
 namespace calib {
 

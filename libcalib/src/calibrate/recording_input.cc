@@ -1,23 +1,14 @@
-#include "calib/calibrate/solve_log.h"
+#include "calib/calibrate/recording_input.h"
 
 #include <optional>
 
 #include "calib/core/errors.h"
 #include "calib/io/log_summary.h"
+#include "calib/io/message_source.h"
 #include "calib/io/messages.h"
-#include "calib/io/recording.h"
-#include "calib/match/laser_scan.h"
 #include "calib/match/scan_match.h"
 
 namespace calib {
-
-namespace {
-
-std::string EventPlace(const LogEvent& event) {
-  return "event " + std::to_string(event.event_number) + " (" + event.channel + ")";
-}
-
-}  // namespace
 
 MotionSource ChooseMotionSource(const RobotDescription& robot, const std::string& log_path,
                                 std::optional<MotionSource> requested) {
@@ -28,9 +19,9 @@ MotionSource ChooseMotionSource(const RobotDescription& robot, const std::string
   };
   if (!has(kWheelsChannel))
     throw InputError(log_path, "channel " + std::string(kWheelsChannel), "not in the recording");
-  const std::string scan = robot.lidar2d ? robot.lidar2d->channel : kScanChannel;
-  const std::string pose = robot.pose ? robot.pose->channel : kPoseChannel;
-  const std::string imu = robot.imu ? robot.imu->channel : kImuChannel;
+  const std::string scan = ScanChannel(robot);
+  const std::string pose = PoseChannel(robot);
+  const std::string imu = ImuChannel(robot);
   if (requested == MotionSource::kImu ||
       (!requested && !has(scan) && !has(pose) && robot.imu && has(imu))) {
     if (!robot.imu) throw InputError(robot.source_file, "imu", "no IMU in the robot file (needed for --source imu)");
@@ -54,49 +45,30 @@ MotionSource ChooseMotionSource(const RobotDescription& robot, const std::string
 
 void ReadCalibrationStream(const RobotDescription& robot, const std::string& log_path,
                            bool match_scans, const CalibrationStreamHandlers& handlers) {
-  const std::string pose_channel = robot.pose ? robot.pose->channel : kPoseChannel;
-  const std::string scan_channel = robot.lidar2d ? robot.lidar2d->channel : kScanChannel;
-  const std::string imu_channel = robot.imu ? robot.imu->channel : kImuChannel;
   std::optional<ScanMatchPipeline> matcher;
   if (match_scans) matcher.emplace(robot);
   auto take_matches = [&]() {
     for (const SensorMotion& m : matcher->TakeResults())
       if (handlers.motion) handlers.motion(m);
   };
-  LogReader reader(log_path);
-  LogEvent event;
-  while (reader.Next(&event)) {
-    const int size = static_cast<int>(event.data.size());
-    if (event.channel == kWheelsChannel) {
-      agvcal::wheel_state_t m;
-      if (!Decode(event.data.data(), size, &m))
-        throw InputError(log_path, EventPlace(event), "does not decode as wheel_state_t");
-      const std::string origin = log_path + ": " + EventPlace(event);
-      const WheelSample sample = WheelSampleFromMessage(m, robot, origin);
-      if (handlers.wheels) handlers.wheels(sample);
-      if (matcher) {
-        matcher->AddWheels(sample);
-        take_matches();
-      }
-    } else if (matcher && event.channel == scan_channel) {
-      agvcal::laser_scan_t m;
-      if (!Decode(event.data.data(), size, &m))
-        throw InputError(log_path, EventPlace(event), "does not decode as laser_scan_t");
-      LaserScan scan = LaserScanFromMessage(m, log_path + ": " + EventPlace(event));
+  RecordingSource source(log_path);
+  SubscribeWheels(&source, robot, [&](const WheelSample& sample) {
+    if (handlers.wheels) handlers.wheels(sample);
+    if (matcher) {
+      matcher->AddWheels(sample);
+      take_matches();
+    }
+  });
+  if (matcher) {
+    SubscribeScans(&source, ScanChannel(robot), [&](LaserScan scan) {
       if (handlers.adjust_scan) handlers.adjust_scan(&scan);
       matcher->AddScan(scan);
       take_matches();
-    } else if (handlers.imu && event.channel == imu_channel) {
-      agvcal::imu_t m;
-      if (!Decode(event.data.data(), size, &m))
-        throw InputError(log_path, EventPlace(event), "does not decode as imu_t");
-      handlers.imu(m, log_path + ": " + EventPlace(event));
-    } else if (handlers.pose && event.channel == pose_channel) {
-      agvcal::pose2d_t m;
-      if (!Decode(event.data.data(), size, &m))
-        throw InputError(log_path, EventPlace(event), "does not decode as pose2d_t");
-      handlers.pose(m);
-    }
+    });
+  }
+  if (handlers.imu) SubscribeImu(&source, ImuChannel(robot), handlers.imu);
+  if (handlers.pose) SubscribePoses(&source, PoseChannel(robot), handlers.pose);
+  while (source.HandleNext(0)) {
     if (handlers.event) handlers.event();
   }
   if (matcher) {
@@ -128,10 +100,8 @@ CalibrationData ReadCalibrationData(const RobotDescription& robot, const std::st
   handlers.progress = progress;
   handlers.wheels = [&](const WheelSample& sample) { data.AddWheels(sample); };
   handlers.motion = [&](const SensorMotion& m) { data.AddMotion(m); };
-  if (source == MotionSource::kPose) handlers.pose = [&](const agvcal::pose2d_t& m) { data.AddPose(m); };
-  if (source == MotionSource::kImu) {
-    handlers.imu = [&](const agvcal::imu_t& m, const std::string& origin) { data.AddImu(m, origin); };
-  }
+  if (source == MotionSource::kPose) handlers.pose = [&](const StampedPose& p) { data.AddPose(p); };
+  if (source == MotionSource::kImu) handlers.imu = [&](const ImuSample& s) { data.AddImu(s); };
   int64_t count = 0;
   handlers.event = [&]() {
     if (progress && ++count % 100000 == 0) {

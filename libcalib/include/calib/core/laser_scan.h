@@ -1,12 +1,10 @@
 #pragma once
-// A 2D lidar scan as plain data (laser_scan_t of spec/messages.md, validated).
+// A 2D lidar scan as plain data (laser_scan_t of spec/messages.md, validated by
+// LaserScanFromMessage in calib/io/messages.h).
 
 #include <cmath>
 #include <cstdint>
-#include <string>
 #include <vector>
-
-#include "agvcal/laser_scan_t.hpp"
 
 namespace calib {
 
@@ -34,13 +32,5 @@ struct LaserScan {
     return std::isfinite(r) && r >= range_min && r <= range_max;
   }
 };
-
-// The scan of a message. Throws InputError (file = `origin`, e.g. "log.lcm:
-// event 1234") when nranges or nintensities disagree with the arrays, an
-// angle or time field is not finite, angle_increment is 0 with more than one
-// beam, time_increment or scan_time is negative, the beams span more than
-// kMaxScanDuration (time_increment in the wrong unit), or the range interval
-// is empty or not a number.
-LaserScan LaserScanFromMessage(const agvcal::laser_scan_t& message, const std::string& origin);
 
 }  // namespace calib

@@ -1,6 +1,8 @@
 #pragma once
-// `agvcal solve` on a recording: the same data path as the live processes
-// (scan matcher pipeline, CalibrationData, Calibrate), fed from a log in its
+// The calibration's input from a recording, for the offline commands (`agvcal
+// solve`, diagnose, recal): the same data path as the live processes (the
+// messages through a calib/io/message_source.h subscription, scans through the
+// scan matcher pipeline, CalibrationData, Calibrate), fed from a log in its
 // order, so a replay through the live group gives the same numbers.
 
 #include <functional>
@@ -10,8 +12,9 @@
 #include "calib/calibrate/calibration.h"
 #include "calib/calibrate/calibration_data.h"
 #include "calib/calibrate/imu_calibration.h"
+#include "calib/core/laser_scan.h"
 #include "calib/core/robot.h"
-#include "calib/match/laser_scan.h"
+#include "calib/core/sensor_data.h"
 
 namespace calib {
 
@@ -34,8 +37,8 @@ MotionSource ChooseMotionSource(const RobotDescription& robot, const std::string
 struct CalibrationStreamHandlers {
   std::function<void(const WheelSample&)> wheels;
   std::function<void(const SensorMotion&)> motion;      // scan matches
-  std::function<void(const agvcal::pose2d_t&)> pose;    // the external pose source's channel
-  std::function<void(const agvcal::imu_t&, const std::string& origin)> imu;  // the robot's IMU channel
+  std::function<void(const StampedPose&)> pose;         // the external pose source's channel
+  std::function<void(const ImuSample&)> imu;            // the robot's IMU channel
   std::function<void()> event;                          // after every event of the log
   std::function<void(LaserScan*)> adjust_scan;           // applied to each scan before matching
   std::function<void(const std::string&)> progress;     // the scan matcher's counts at the end
@@ -43,7 +46,8 @@ struct CalibrationStreamHandlers {
 
 // Feeds the log's WHEELS, scan matches (when `match_scans`: the robot file's 2D lidar channel
 // through ScanMatchPipeline, as the live scan matcher), POSE and IMU to `handlers`, in log order.
-// Throws InputError naming the log and the event for a message that does not decode.
+// Throws InputError naming the log and the event for a message that does not decode or
+// convert (calib/io/message_source.h).
 void ReadCalibrationStream(const RobotDescription& robot, const std::string& log_path,
                            bool match_scans, const CalibrationStreamHandlers& handlers);
 
@@ -59,6 +63,7 @@ CalibrationData ReadCalibrationData(const RobotDescription& robot, const std::st
                                     const std::function<void(const std::string&)>& progress,
                                     const std::function<void(LaserScan*)>& adjust_scan);
 
+// `agvcal solve`: the motion source (ChooseMotionSource), the data, the calibration.
 CalibrationResult SolveLog(const RobotDescription& robot, const std::string& log_path,
                            const SolveLogOptions& options);
 
