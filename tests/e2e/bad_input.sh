@@ -17,6 +17,19 @@ stderr_has "corrupt.log"; stderr_has "byte"
 expect_status 2 "missing log" "$AGVCAL" info "$TMP/nothing.log"
 stderr_has "nothing.log"
 
+# A length field no message can hold is refused before anything is allocated (it took 8 GB and a
+# SIGSEGV): nranges of the 20th SCAN (after the hash, utime and six floats), num_wheels of a WHEELS.
+corrupt=tests/tools/corrupt_log.py
+python3 $corrupt "$TMP/good.log" "$TMP/huge_scan.log" SCAN 20 40 0x7fffffff
+for command in info solve diagnose; do
+  args=("$TMP/huge_scan.log"); [ $command = info ] || args=(config/robots/diff_robot.yaml "$TMP/huge_scan.log" --quiet)
+  expect_status 2 "$command: a scan of 2^31 beams" timeout 20 "$AGVCAL" $command "${args[@]}"
+  stderr_has "huge_scan.log"; stderr_has "(SCAN)"; stderr_has "nranges = 2147483647"; stderr_has "are left"
+done
+python3 $corrupt "$TMP/good.log" "$TMP/huge_wheels.log" WHEELS 5 16 0x10000000
+expect_status 2 "solve: 2^28 wheels" timeout 20 "$AGVCAL" solve config/robots/diff_robot.yaml "$TMP/huge_wheels.log" --quiet
+stderr_has "(WHEELS)"; stderr_has "num_wheels = 268435456"
+
 sed 's/track:/trak:/' config/robots/diff_robot.yaml >"$TMP/typo_robot.yaml"
 sed "s|../robots/diff_robot.yaml|$TMP/typo_robot.yaml|" config/sims/diff_robot.yaml >"$TMP/typo_sim.yaml"
 expect_status 2 "robot file with a typo" "$AGVCAL" simulate "$TMP/typo_sim.yaml" "$TMP/out.log"

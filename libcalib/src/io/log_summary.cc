@@ -20,18 +20,18 @@ namespace calib {
 
 namespace {
 
-// Decodes a message of type M and returns its utime; false if it does not decode.
+// Decodes a message of type M and returns its utime; false (and why) if it does not decode.
 template <typename M>
-bool DecodeUtime(const uint8_t* data, size_t size, int64_t* utime) {
+bool DecodeUtime(const uint8_t* data, size_t size, int64_t* utime, std::string* why) {
   M msg{};
-  if (!Decode(data, static_cast<int>(size), &msg)) return false;
+  if (!Decode(data, static_cast<int>(size), &msg, why)) return false;
   *utime = msg.utime;
   return true;
 }
 
 struct ChannelType {
   const char* type;
-  bool (*decode)(const uint8_t*, size_t, int64_t*);
+  bool (*decode)(const uint8_t*, size_t, int64_t*, std::string*);
 };
 
 const std::map<std::string, ChannelType>& KnownChannels() {
@@ -58,7 +58,7 @@ std::optional<ChannelStamp> StampOf(const std::string& channel, const uint8_t* d
   if (known == KnownChannels().end()) return std::nullopt;
   ChannelStamp stamp;
   stamp.type = known->second.type;
-  stamp.decoded = known->second.decode(data, size, &stamp.utime);
+  stamp.decoded = known->second.decode(data, size, &stamp.utime, &stamp.why);
   return stamp;
 }
 
@@ -75,7 +75,7 @@ LogSummary SummarizeLog(const std::string& path) {
       if (!stamp->decoded)
         throw InputError(path, "event " + std::to_string(event.event_number) + " at byte " +
                                    std::to_string(event.offset) + " (" + event.channel + ")",
-                         std::string("does not decode as ") + stamp->type);
+                         std::string("does not decode as ") + stamp->type + ": " + stamp->why);
       utime = stamp->utime;
     }
     if (ch.count == 0) {

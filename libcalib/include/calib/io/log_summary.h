@@ -29,7 +29,8 @@ struct LogSummary {
 // the project's channels whose message has a `utime` field.
 struct ChannelStamp {
   const char* type = "";
-  bool decoded = false;  // false: the bytes are not a valid message of `type`
+  bool decoded = false;  // false: the bytes are not a valid message of `type`, and
+  std::string why;       // what is wrong with them
   int64_t utime = 0;
 };
 // nullopt for a channel not in that list (its message type is not known).

@@ -124,8 +124,9 @@ void MessageSource::Subscribe(const std::string& channel,
   SubscribeRaw(channel, [this, handler = std::move(handler)](const std::string&, const uint8_t* data,
                                                              size_t size) {
     Message message;
-    if (!Decode(data, static_cast<int>(size), &message))
-      throw InputError(file(), place(), std::string("does not decode as ") + Message::getTypeName());
+    std::string why;
+    if (!Decode(data, static_cast<int>(size), &message, &why))
+      throw InputError(file(), place(), std::string("does not decode as ") + Message::getTypeName() + ": " + why);
     handler(message, origin());
   });
 }
