@@ -63,6 +63,16 @@ def _run(cmd, timeout_s, nice, stdout_path=None):
     return p.returncode, (lines[-1] if lines else "")[:2000]
 
 
+def _remove_stale_folders():
+    """Removes the scratch folders of tasks whose worker process died (killed mid-task)."""
+    root = tempfile.gettempdir()
+    for name in os.listdir(root):
+        if name.startswith("agvcal-fleet-task-"):
+            pid = name.split("-")[3]
+            if pid.isdigit() and not os.path.exists(f"/proc/{pid}"):
+                shutil.rmtree(os.path.join(root, name), ignore_errors=True)
+
+
 def _read_json(path):
     try:
         with open(path, encoding="utf-8") as f:
@@ -83,7 +93,8 @@ def process_recording(spec):
            "task_version": TASK_VERSION, "worker": socket.gethostname() + ":" + str(os.getpid())}
     agvcal, robot, log = spec["agvcal"], spec["robot_file"], spec["path"]
     timeout, nice = spec.get("timeout_s", 900), spec.get("nice", 0)
-    tmp = tempfile.mkdtemp(prefix="agvcal-fleet-")
+    _remove_stale_folders()
+    tmp = tempfile.mkdtemp(prefix=f"agvcal-fleet-task-{os.getpid()}-")
     try:
         try:
             got = sha256_file(log)
