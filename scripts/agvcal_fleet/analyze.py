@@ -108,8 +108,13 @@ def analyze(robots, alpha=0.01, min_recordings=5, window_days=7.0, fleet_min_rob
             y = [r.params[name][0] for r in recs]
             s = [r.params[name][1] for r in recs]
             series.setdefault(rid, {})[name] = {"recs": recs, "t": t, "y": y, "s": s}
-            d = stats.drift_test(t, y, s)
-            fits.setdefault((rob["drive"], name), []).append((d["chi2"], len(y) - 2))
+            # the scatter about the better of the two models, so that a robot that drifts or
+            # steps does not widen the scale (with few robots a single one would decide it)
+            chi2 = stats.drift_test(t, y, s)["chi2"]
+            st = stats.step_test(y, s)
+            if st:
+                chi2 = min(chi2, st["chi2"])
+            fits.setdefault((rob["drive"], name), []).append((chi2, len(y)))
     scales = {k: stats.pooled_scale(v) for k, v in fits.items()}
     m = 2 * sum(len(v) for v in series.values())
     findings = []

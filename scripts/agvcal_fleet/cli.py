@@ -57,6 +57,8 @@ def build_parser():
                    help="a running Dask scheduler (`dask scheduler`, workers `dask worker "
                         "tcp://HOST:8786`); the recordings and agvcal must be at the same paths on "
                         "every worker (shared storage)")
+    p.add_argument("--connect-timeout", type=float, default=30, metavar="S",
+                   help="seconds to wait for the scheduler (default %(default)s)")
     p.add_argument("--workers", type=int, default=max(1, os.cpu_count() or 1),
                    help="LocalCluster worker processes (default: one per core, %(default)s)")
     p.add_argument("--threads", type=int, default=1,

@@ -189,7 +189,7 @@ def find_agvcal(option):
                      "build it or give --agvcal PATH")
 
 
-def start_client(scheduler, workers, threads):
+def start_client(scheduler, workers, threads, connect_timeout=30):
     """A Dask client: on SCHEDULER, or on an in-process LocalCluster of WORKERS processes."""
     import dask
     from distributed import Client, LocalCluster
@@ -197,9 +197,9 @@ def start_client(scheduler, workers, threads):
                      "distributed.admin.tick.limit": "1h"})  # no warnings under heavy load
     if scheduler:
         try:
-            client = Client(scheduler, timeout=30)
-        except (OSError, TimeoutError) as e:
-            raise UsageError(f"--scheduler {scheduler}: cannot connect ({e})")
+            client = Client(scheduler, timeout=connect_timeout)
+        except Exception as e:  # OSError, TimeoutError, ValueError (a malformed address)
+            raise UsageError(f"--scheduler {scheduler}: cannot connect ({str(e).splitlines()[0] if str(e) else type(e).__name__})")
         return client, None
     cluster = LocalCluster(n_workers=workers, threads_per_worker=threads, processes=True,
                            dashboard_address=None, silence_logs=logging.CRITICAL)
@@ -212,6 +212,9 @@ def run(args):
     agvcal = find_agvcal(args.agvcal)
     db = dbmod.Database(args.db)
     db.migrate()
+    client = cluster = None
+    if args.scheduler:  # fail before doing anything when it cannot be reached
+        client, cluster = start_client(args.scheduler, 0, 0, args.connect_timeout)
     say = (lambda m: None) if args.quiet else (lambda m: print("agvcal-fleet: " + m, file=sys.stderr, flush=True))
 
     run_id = utc_now().replace(":", "").replace("-", "") + "-" + uuid.uuid4().hex[:8]
@@ -247,13 +250,13 @@ def run(args):
         f"{len(pending)} to do on {where}")
     progress = Progress(len(pending), quiet=args.quiet)
     status = "finished"
-    client = cluster = None
     try:
         if pending:
             import cloudpickle
             from distributed import as_completed
             cloudpickle.register_pickle_by_value(tasks)  # workers need not import this package
-            client, cluster = start_client(args.scheduler, args.workers, args.threads)
+            if client is None:
+                client, cluster = start_client(None, args.workers, args.threads)
             if args.scheduler:
                 n = len(client.scheduler_info().get("workers", {}))
                 say(f"{args.scheduler}: {n} worker{'s' * (n != 1)}")

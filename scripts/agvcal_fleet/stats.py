@@ -87,12 +87,35 @@ def median(xs):
     return xs[n // 2] if n % 2 else 0.5 * (xs[n // 2 - 1] + xs[n // 2])
 
 
+_NULL_MEDIAN = {}
+
+
+def null_median_best_chi2(n):
+    """Median, for n values of pure unit noise at equal spacing, of the smaller chi-square
+    of the two models (line, best step): by a seeded simulation (deterministic), cached."""
+    if n not in _NULL_MEDIAN:
+        import random
+        rng = random.Random(1000 + n)
+        t = [float(i) for i in range(n)]
+        s = [1.0] * n
+        vals = []
+        for _ in range(801):
+            y = [rng.gauss(0.0, 1.0) for _ in range(n)]
+            c = linear_fit(t, y, s)[3]
+            st = step_test(y, s)
+            vals.append(min(c, st["chi2"]) if st else c)
+        _NULL_MEDIAN[n] = median(vals)
+    return _NULL_MEDIAN[n]
+
+
 def pooled_scale(fits):
-    """Noise scale f >= 1 from several series' line fits [(chi2, dof), ...]: the median over
-    the series of chi2 / median(chi2_dof), square-rooted. Robust: the robots that drift or
-    step (a minority) do not inflate it; sigmas that are too small for the scatter are
-    widened, sigmas too large are kept (conservative)."""
-    ratios = [c / chi2_median(d) for c, d in fits if d > 0]
+    """Noise scale f >= 1 from several series [(best chi2, n), ...], the best chi2 being the
+    smaller of the line's and the best step's: the median over the series of best chi2 /
+    its median under pure noise, square-rooted. Robust: a robot that drifts or steps fits
+    one of the models and does not inflate it, and the median ignores a minority that fits
+    neither; sigmas too small for the scatter are widened, sigmas too large are kept
+    (conservative)."""
+    ratios = [c / null_median_best_chi2(n) for c, n in fits if n >= 4]
     if not ratios:
         return 1.0
     return max(1.0, math.sqrt(median(ratios)))
