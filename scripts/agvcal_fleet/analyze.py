@@ -224,7 +224,10 @@ def analyze(robots, alpha=0.01, min_recordings=5, window_days=7.0, fleet_min_rob
                 break
             candidates.append((key, best[0], best[1]))
             used |= {o[1] for o in best[1]}
-    n_windows = max(1, len(candidates))
+    # the family: a window may start on any day of the fleet's span, for any catalogue effect
+    days_all = [r.day for rob in robots.values() for r in rob["recordings"] if r.day is not None]
+    n_windows = max(1, math.ceil(max(days_all) - min(days_all))) if days_all else 1
+    family = n_windows * max(len(EFFECT_SIZE_PARAM), len(onsets))
     for key, day0, win in candidates:
         # robots that could show an onset in the window: diagnosed before and after it
         n = 0
@@ -233,7 +236,7 @@ def analyze(robots, alpha=0.01, min_recordings=5, window_days=7.0, fleet_min_rob
             if sum(d < day0 for d in days) >= 2 and sum(d >= day0 for d in days) >= 2:
                 n += 1
         p = stats.binomial_sf(len(win), max(n, len(win)), CHANCE_ONSET)
-        p_adj = min(1.0, p * n_windows * len(EFFECT_SIZE_PARAM))
+        p_adj = min(1.0, p * family)
         if p_adj > alpha:
             continue
         first = min(win, key=lambda o: o[0])

@@ -226,7 +226,8 @@ def run(args):
         robot_sha = tasks.sha256_file(r.robot_file)
         db.upsert("robots", ["robot_id"], {"robot_id": r.robot_id, "drive": robot_drive(r.robot_file),
                                            "robot_file": r.robot_file, "robot_sha256": robot_sha})
-        hashes = recording_hashes(db, r.recordings, say)
+        with db.transaction():
+            hashes = recording_hashes(db, r.recordings, say)
         for path in r.recordings:
             sha, size = hashes[path]
             if sha in owner:
@@ -283,6 +284,9 @@ def run(args):
                 fut.release()
     except KeyboardInterrupt:
         status = "interrupted"
+    except BaseException:
+        status = "failed"
+        raise
     finally:
         if client is not None:
             client.close()
