@@ -23,7 +23,7 @@ def nice_ticks(lo, hi, n=5):
 def fmt_tick(v, step):
     if step == 0 or not math.isfinite(step):
         return f"{v:g}"
-    d = max(0, -math.floor(math.log10(abs(step))) + 1) if step < 1 else 0
+    d = next((k for k in range(12) if abs(round(step, k) - step) <= 1e-9 * abs(step)), 12)
     return f"{v:.{d}f}"
 
 
