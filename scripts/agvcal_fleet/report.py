@@ -1,0 +1,398 @@
+"""`agvcal-fleet report`: the analysis as HTML pages with SVG plots.
+
+DIR/index.html   the fleet at a glance: robots that need attention and why (strongest
+                 evidence per robot against the alarm threshold, a timeline of their
+                 recordings with the changes marked), fleet-wide effects, failed recordings,
+                 every robot in a table
+DIR/robots/ID.html  per robot: findings, each parameter's trend (calibrations with their
+                 sigmas, the fitted model and its 2-sigma band), effects over time, the
+                 recordings with their exit statuses and held-out verdicts
+Every page carries a small script that, opened with `#check`, checks its own layout (no
+horizontal overflow, every image loaded, no text overflowing its box) and writes the
+findings into the page (element #layout-check), for the headless-browser test.
+"""
+import datetime
+import html
+import json
+import math
+import os
+import re
+
+from . import analyze as an
+from . import stats
+from .svg import Plot
+
+CSS = """
+body { font-family: DejaVu Sans, Arial, sans-serif; margin: 0 auto; padding: 12px 18px; max-width: 980px;
+       color: #222; font-size: 14px; line-height: 1.4; }
+h1 { font-size: 22px; margin: 6px 0 4px; } h2 { font-size: 17px; margin: 22px 0 6px; border-bottom: 1px solid #ddd; }
+h3 { font-size: 14px; margin: 14px 0 4px; }
+table { border-collapse: collapse; width: 100%; table-layout: fixed; font-size: 12.5px; }
+th, td { border-bottom: 1px solid #e5e5e5; padding: 3px 5px; text-align: left; vertical-align: top;
+         overflow-wrap: anywhere; }
+th { background: #f4f4f4; }
+img { max-width: 100%; height: auto; display: block; margin: 4px 0 10px; }
+.kind { display: inline-block; padding: 0 6px; border-radius: 3px; color: white; font-size: 11.5px; }
+.step { background: #d62728; } .drift { background: #ff7f0e; } .fleet_effect { background: #6a3d9a; }
+.effect { background: #9467bd; } .failed { background: #7f7f7f; } .heldout { background: #8c564b; }
+.ok { color: #2ca02c; } .muted { color: #777; } .small { font-size: 12px; }
+a { color: #08519c; }
+"""
+
+CHECK_JS = """
+window.addEventListener('load', function () {
+  if (location.hash !== '#check') return;
+  var problems = [], W = document.documentElement.clientWidth;
+  if (document.documentElement.scrollWidth > W + 1)
+    problems.push('page wider than the window: ' + document.documentElement.scrollWidth + ' > ' + W);
+  var imgs = document.querySelectorAll('img');
+  imgs.forEach(function (im) {
+    if (!im.complete || im.naturalWidth === 0) problems.push('image not loaded: ' + im.getAttribute('src'));
+    var r = im.getBoundingClientRect();
+    if (r.right > W + 1) problems.push('image beyond the right edge: ' + im.getAttribute('src'));
+    if (r.width < 50 || r.height < 20) problems.push('image too small: ' + im.getAttribute('src'));
+  });
+  document.querySelectorAll('td, th, p, h1, h2, h3, li').forEach(function (el) {
+    if (el.scrollWidth > el.clientWidth + 1)
+      problems.push('text overflows its box: ' + el.textContent.slice(0, 60));
+  });
+  var pre = document.createElement('pre');
+  pre.id = 'layout-check';
+  pre.textContent = JSON.stringify({images: imgs.length, width: W, problems: problems});
+  document.body.appendChild(pre);
+});
+"""
+
+
+def e(s):
+    return html.escape(str(s))
+
+
+def slug(rid):
+    return re.sub(r"[^A-Za-z0-9._-]", "_", rid)
+
+
+def page(title, body, depth=0):
+    up = "../" * depth
+    return (f"<!DOCTYPE html>\n<html lang=\"en\"><head><meta charset=\"utf-8\">"
+            f"<meta name=\"viewport\" content=\"width=device-width, initial-scale=1\">"
+            f"<title>{e(title)}</title><style>{CSS}</style><script>{CHECK_JS}</script></head>"
+            f"<body>{body}<p class=\"muted small\">agvcal-fleet report · <a href=\"{up}index.html\">fleet</a></p>"
+            f"</body></html>\n")
+
+
+def kind_badge(kind):
+    label = {"fleet_effect": "fleet-wide", "heldout": "held-out"}.get(kind, kind)
+    return f'<span class="kind {e(kind)}">{e(label)}</span>'
+
+
+def day_of(utime):
+    return utime / an.DAY_US if utime is not None else None
+
+
+def write_file(path, text):
+    tmp = path + ".partial"
+    with open(tmp, "w", encoding="utf-8") as f:
+        f.write(text)
+    os.replace(tmp, path)
+
+
+def write(out, robots, result, db):
+    os.makedirs(os.path.join(out, "robots"), exist_ok=True)
+    findings = result["findings"]
+    by_robot = {}
+    for f in findings:
+        by_robot.setdefault(f["robot_id"], []).append(f)
+    attention = [rid for rid in robots if rid in by_robot]
+    runs = db.query_dicts("SELECT * FROM runs ORDER BY started_utc DESC")
+    all_days = [r.day for rob in robots.values() for r in rob["recordings"] if r.day is not None]
+    xlo, xhi = (min(all_days), max(all_days)) if all_days else (0, 1)
+
+    # -- overview plots -------------------------------------------------------------------
+    write_file(os.path.join(out, "evidence.svg"), evidence_svg(robots, result))
+    if attention:
+        write_file(os.path.join(out, "timeline.svg"), timeline_svg(robots, attention, by_robot, xlo, xhi))
+    fleet_fx = [f for f in findings if f["kind"] == "fleet_effect"]
+    for i, f in enumerate(fleet_fx):
+        write_file(os.path.join(out, f"fleet_effect_{i}.svg"), fleet_effect_svg(robots, f, xlo, xhi))
+
+    # -- index ----------------------------------------------------------------------------
+    n_rec = sum(len(r["recordings"]) for r in robots.values())
+    n_fail = sum(1 for rob in robots.values() for r in rob["recordings"] if r.solve_exit != 0 or r.diag_exit != 0)
+    b = [f"<h1>Fleet calibration report</h1>",
+         f"<p>{len(robots)} robots, {n_rec} recordings from {an.date(xlo * an.DAY_US)} to "
+         f"{an.date(xhi * an.DAY_US)}; {n_fail} failed. <b>{len(attention)} robot"
+         f"{'s' * (len(attention) != 1)} need attention.</b> {result['tests']} trend tests "
+         f"(drift and step for every robot and parameter with at least the minimum number of "
+         f"calibrations) at a family-wise false-alarm rate of {result['alpha']:g} over the whole fleet.</p>"]
+    if runs:
+        r = runs[0]
+        b.append(f"<p class=\"small muted\">Last run {e(r['run_id'])} ({e(r['status'])}): "
+                 f"{r['submitted']} recordings processed on {e(r['scheduler'])} "
+                 f"({r['workers'] or '?'} workers), {r['skipped']} skipped as done, {r['failed']} failed"
+                 f"{', %d lost' % r['lost'] if r['lost'] else ''}, {r['elapsed_s'] or 0:.0f} s.</p>")
+    if fleet_fx:
+        b.append("<h2>Fleet-wide effects</h2>")
+        for i, f in enumerate(fleet_fx):
+            links = ", ".join(f'<a href="robots/{slug(x)}.html">{e(x)}</a>' for x in f["detail"]["robots"])
+            b.append(f"<p>{kind_badge('fleet_effect')} {e(f['why'])}.<br><span class=\"small\">Robots: {links}</span></p>")
+            b.append(f'<img src="fleet_effect_{i}.svg" width="640" height="200" alt="{e(f["subject"])} over the fleet">')
+    b.append("<h2>Robots that need attention</h2>")
+    if attention:
+        b.append('<img src="evidence.svg" width="640" height="220" alt="strongest evidence per robot">')
+        b.append('<img src="timeline.svg" alt="timeline of the robots that need attention" '
+                 f'width="640" height="{timeline_height(len(attention))}">')
+        b.append('<table><tr><th style="width:13%">robot</th><th style="width:9%">drive</th>'
+                 '<th style="width:11%">finding</th><th>why</th></tr>')
+        for rid in attention:
+            rows = by_robot[rid]
+            for j, f in enumerate(rows):
+                who = (f'<a href="robots/{slug(rid)}.html">{e(rid)}</a>' if j == 0 else "")
+                drive = e(robots[rid]["drive"] or "?") if j == 0 else ""
+                b.append(f"<tr><td>{who}</td><td>{drive}</td><td>{kind_badge(f['kind'])}</td><td>{e(f['why'])}</td></tr>")
+        b.append("</table>")
+    else:
+        b.append('<p class="ok">None: every robot\'s parameters are constant within their sigmas, no '
+                 'effect persists, no recording failed.</p>')
+        b.append('<img src="evidence.svg" width="640" height="220" alt="strongest evidence per robot">')
+    failed = [(rid, r) for rid, rob in robots.items() for r in rob["recordings"]
+              if r.solve_exit != 0 or r.diag_exit != 0]
+    if failed:
+        b.append("<h2>Failed recordings</h2><table><tr><th style=\"width:13%\">robot</th>"
+                 "<th style=\"width:30%\">recording</th><th style=\"width:12%\">exit (solve / diagnose)</th><th>message</th></tr>")
+        for rid, r in failed:
+            msg = r.solve_message if r.solve_exit != 0 else r.diag_message
+            b.append(f"<tr><td><a href=\"robots/{slug(rid)}.html\">{e(rid)}</a></td><td>{e(os.path.basename(r.path))}</td>"
+                     f"<td>{e(r.solve_exit)} / {e(r.diag_exit)}</td><td>{e(msg or '')}</td></tr>")
+        b.append("</table>")
+    b.append("<h2>All robots</h2><table><tr><th style=\"width:14%\">robot</th><th style=\"width:10%\">drive</th>"
+             "<th style=\"width:11%\">recordings</th><th style=\"width:13%\">latest</th>"
+             "<th style=\"width:17%\">latest held-out check</th><th>status</th></tr>")
+    for rid, rob in robots.items():
+        recs = rob["recordings"]
+        dated = [r for r in recs if r.utime is not None]
+        latest = an.date(dated[-1].utime) if dated else "?"
+        ho = next((r.heldout["heldout_verdict"] for r in reversed(recs) if r.heldout.get("heldout_verdict")), "")
+        kinds = sorted({f["kind"] for f in by_robot.get(rid, [])})
+        status = " ".join(kind_badge(k) for k in kinds) if kinds else '<span class="ok">ok</span>'
+        b.append(f"<tr><td><a href=\"robots/{slug(rid)}.html\">{e(rid)}</a></td><td>{e(rob['drive'] or '?')}</td>"
+                 f"<td>{len(recs)}</td><td>{latest}</td><td>{e(ho.replace('_', ' '))}</td><td>{status}</td></tr>")
+    b.append("</table>")
+    b.append(f"<p class=\"small muted\">Noise scale per drive and parameter (the sigmas are widened by it when "
+             f"the fleet's scatter says they are optimistic): "
+             f"{e(', '.join(f'{k} {v:.2f}' for k, v in sorted(result['scales'].items())))}.</p>")
+    write_file(os.path.join(out, "index.html"), page("Fleet calibration report", "\n".join(b)))
+
+    # -- robot pages ----------------------------------------------------------------------
+    for rid, rob in robots.items():
+        write_robot(out, rid, rob, by_robot.get(rid, []), result)
+
+
+def write_robot(out, rid, rob, findings, result):
+    s = slug(rid)
+    d = os.path.join(out, "robots")
+    recs = rob["recordings"]
+    b = [f"<h1>{e(rid)}</h1><p>{e(rob['drive'] or '?')} drive, robot file <code>{e(rob['robot_file'])}</code>; "
+         f"{len(recs)} recordings.</p>"]
+    if findings:
+        b.append("<h2>Findings</h2><ul>")
+        for f in findings:
+            b.append(f"<li>{kind_badge(f['kind'])} {e(f['why'])}</li>")
+        b.append("</ul>")
+    else:
+        b.append('<p class="ok">No finding: constant within the sigmas, no persistent effect.</p>')
+    ser = result["series"].get(rid, {})
+    dated = [r.day for r in recs if r.day is not None]
+    xlo, xhi = (min(dated), max(dated)) if dated else (0, 1)
+    if ser:
+        b.append("<h2>Parameters</h2><p class=\"small\">Each calibration with its one-sigma bar; the line "
+                 "is the model the tests chose (constant, drift or step), the band its 2-sigma range "
+                 "(sigmas times the fleet's noise scale).</p>")
+    for i, (name, sr) in enumerate(sorted(ser.items())):
+        fname = f"{s}_p{i}.svg"
+        write_file(os.path.join(d, fname), param_svg(name, sr, findings, xlo, xhi))
+        b.append(f'<img src="{fname}" width="640" height="200" alt="{e(name)} over time">')
+    keys = sorted({k for r in recs for k in r.effects})
+    if keys:
+        b.append("<h2>Effects found by the diagnosis</h2>")
+        for i, key in enumerate(keys):
+            fname = f"{s}_e{i}.svg"
+            write_file(os.path.join(d, fname), effect_svg(key, recs, xlo, xhi))
+            b.append(f'<img src="{fname}" width="640" height="200" alt="{e(key)} over time">')
+    b.append("<h2>Recordings</h2><table><tr><th style=\"width:11%\">date</th><th style=\"width:27%\">file</th>"
+             "<th style=\"width:9%\">s, m driven</th><th style=\"width:9%\">solve</th><th style=\"width:16%\">held-out</th>"
+             "<th>diagnosis</th></tr>")
+    for r in recs:
+        solve = "ok" if r.solve_exit == 0 else f"exit {r.solve_exit}"
+        ho = r.heldout.get("heldout_verdict") or ""
+        if r.heldout.get("heldout_nominal_error_per_m") is not None:
+            ho += f" ({r.heldout['heldout_nominal_error_per_m']:.4f} → {r.heldout['heldout_calibrated_error_per_m']:.4f}/m)"
+        if r.diag_exit == 0:
+            diag = ", ".join(f"{k} {an.fmt_effect(k, v[an.effect_key_param(k, v)][0])}" for k, v in sorted(r.effects.items())) or "no effect"
+        else:
+            diag = f"exit {r.diag_exit}: {r.diag_message or ''}"
+        if r.solve_exit != 0:
+            solve += f": {r.solve_message or ''}"
+        dur = f"{r.duration_s:.0f}, {r.distance_m:.1f}" if r.duration_s is not None and r.distance_m is not None else ""
+        b.append(f"<tr><td>{an.date(r.utime)}</td><td>{e(os.path.basename(r.path))}</td><td>{dur}</td>"
+                 f"<td>{e(solve)}</td><td>{e(ho.replace('_', ' '))}</td><td>{e(diag)}</td></tr>")
+    b.append("</table>")
+    write_file(os.path.join(d, f"{s}.html"), page(f"{rid}: calibration trends", "\n".join(b), depth=1))
+
+
+# -- plots ---------------------------------------------------------------------------------
+def unit(name):
+    """(factor, label) to show a parameter in readable units."""
+    if an.is_angle(name):
+        return 180 / math.pi, "deg"
+    if name.endswith("time_offset"):
+        return 1e3, "ms"
+    return 1e3, "mm"
+
+
+def param_svg(name, sr, findings, xlo, xhi):
+    k, lab = unit(name)
+    t, y, s, f = sr["t"], [v * k for v in sr["y"]], [v * k for v in sr["s"]], sr["scale"]
+    model = sr.get("model", "constant")
+    if model == "drift":
+        dr = sr["drift"]
+        fit = [(dr["a"] + dr["slope"] * (ti - dr["tw"])) * k for ti in t]
+    elif model == "step":
+        st = sr["step"]
+        fit = [(st["before"] if i < st["k"] else st["after"]) * k for i in range(len(t))]
+    else:
+        m, _ = stats.weighted_mean(sr["y"], sr["s"])
+        fit = [m * k] * len(t)
+    lo = [fi - 2 * f * si for fi, si in zip(fit, s)]
+    hi = [fi + 2 * f * si for fi, si in zip(fit, s)]
+    p = Plot(title=f"{name} ({model}{'' if f == 1 else f', noise scale {f:.2f}'})", ylabel=lab,
+             xlo=xlo - 0.03 * (xhi - xlo + 1), xhi=xhi + 0.03 * (xhi - xlo + 1))
+    p.fit(t, lo + hi + [yi - si for yi, si in zip(y, s)] + [yi + si for yi, si in zip(y, s)])
+    if model == "step":
+        i = sr["step"]["k"]
+        p.band(t[:i], lo[:i], hi[:i])
+        p.band(t[i:], lo[i:], hi[i:])
+        p.line(t[:i], fit[:i])
+        p.line(t[i:], fit[i:])
+        p.vline(0.5 * (t[i - 1] + t[i]), label="step")
+    else:
+        p.band(t, lo, hi)
+        p.line(t, fit)
+    for fnd in findings:
+        if fnd["kind"] == "drift" and fnd["subject"] == name:
+            p.vline(fnd["first_utime"] / an.DAY_US, color="#ff7f0e", label="drift shows")
+    titles = [f"{an.date(r.utime)}: {yi:.5g} ± {si:.2g} {lab}" for r, yi, si in zip(sr["recs"], y, s)]
+    p.points(t, y, s, titles=titles)
+    return p.render()
+
+
+def effect_svg(key, recs, xlo, xhi):
+    ds = [r for r in recs if r.diag_exit == 0 and r.day is not None]
+    name = key.split(":")[0]
+    param = an.EFFECT_SIZE_PARAM.get(name)
+    xs, ys, es = [], [], []
+    for r in ds:
+        if key in r.effects:
+            v = r.effects[key]
+            pp = param if param in v else sorted(v)[0]
+            xs.append(r.day)
+            ys.append(v[pp][0])
+            es.append(v[pp][1])
+    scale, lab = (1e3, "ms") if (param or "").endswith("_s") else (1.0, param or "")
+    p = Plot(title=f"{key}: size when found (hollow: not found)", ylabel=lab,
+             xlo=xlo - 0.03 * (xhi - xlo + 1), xhi=xhi + 0.03 * (xhi - xlo + 1))
+    yv = [v * scale for v in ys]
+    p.fit([r.day for r in ds], yv + [0.0] + [v + (er or 0) * scale for v, er in zip(yv, es)])
+    p.hline(0.0)
+    p.points(xs, yv, [(er or 0) * scale for er in es], color="#6a3d9a")
+    for r in ds:
+        if key not in r.effects:
+            p.raw(f'<circle cx="{p.X(r.day):.1f}" cy="{p.Y(0.0):.1f}" r="2.6" fill="white" stroke="#6a3d9a"/>')
+    return p.render()
+
+
+def evidence_svg(robots, result):
+    """Per robot (x, in the order of the table) the strongest evidence of a change:
+    -log10 of the smallest adjusted p-value of its drift and step tests, against the
+    threshold -log10(alpha)."""
+    ids = list(robots)
+    vals, colors = [], []
+    for rid in ids:
+        best, kind = 1.0, "constant"
+        for name, sr in result["series"].get(rid, {}).items():
+            for k in ("drift", "step"):
+                t = sr.get(k)
+                if t and t["p_adj"] < best:
+                    best, kind = t["p_adj"], k
+        vals.append(min(12.0, -math.log10(max(best, 1e-300))))
+        colors.append({"drift": "#ff7f0e", "step": "#d62728"}.get(kind, "#636363")
+                      if best <= result["alpha"] else "#636363")
+    thr = -math.log10(result["alpha"])
+    p = Plot(height=220, title="strongest evidence of a change per robot, in the order of the table",
+             ylabel="-log10 adjusted p", xlo=-1, xhi=max(len(ids), 1), ylo=0, yhi=13)
+    p.hline(thr, color="#d62728", dash="5 3")
+    p.raw(f'<text x="{p.ml + 4}" y="{p.Y(thr) - 4:.1f}" font-size="10" '
+          f'fill="#d62728">alarm threshold (alpha {result["alpha"]:g})</text>')
+    bw = max(1.0, (p.w - p.ml - p.mr) / max(len(ids), 1) * 0.7)
+    for i, (rid, v, c) in enumerate(zip(ids, vals, colors)):
+        x0 = p.X(i) - bw / 2
+        p.raw(f'<rect x="{x0:.1f}" y="{p.Y(v):.1f}" width="{bw:.1f}" height="{p.Y(0) - p.Y(v):.1f}" '
+              f'fill="{c}"><title>{html.escape(rid)}: {v:.1f}</title></rect>')
+    return p.render(xdates=False)
+
+
+def timeline_height(n):
+    return 40 + 14 * n
+
+
+def timeline_svg(robots, attention, by_robot, xlo, xhi):
+    """One row per robot that needs attention: its recordings (grey ok, red failed, purple
+    with an effect), steps (red bar), drifts shown from (orange bar)."""
+    h = timeline_height(len(attention))
+    p = Plot(height=h, title="recordings of the robots that need attention", xlo=xlo - 1, xhi=xhi + 1,
+             ylo=len(attention) + 0.2, yhi=-1.2)
+    p.ml = 90
+    # y grows downwards here: rows 0..n-1 from the top (ylo > yhi)
+    for i, rid in enumerate(attention):
+        y = i
+        p.raw(f'<line x1="{p.X(xlo - 1):.1f}" y1="{p.Y(y):.1f}" x2="{p.X(xhi + 1):.1f}" y2="{p.Y(y):.1f}" stroke="#eee"/>')
+        for r in robots[rid]["recordings"]:
+            if r.day is None:
+                continue
+            col = "#d62728" if (r.solve_exit != 0 or r.diag_exit != 0) else ("#6a3d9a" if r.effects else "#969696")
+            p.raw(f'<circle cx="{p.X(r.day):.1f}" cy="{p.Y(y):.1f}" r="3" fill="{col}"/>')
+        for f in by_robot[rid]:
+            if f["kind"] == "step" and f["change_utime"]:
+                x = p.X(f["change_utime"] / an.DAY_US)
+                p.raw(f'<rect x="{x - 2:.1f}" y="{p.Y(y) - 6:.1f}" width="4" height="12" fill="#d62728"><title>'
+                      f'{html.escape(f["why"])}</title></rect>')
+            if f["kind"] == "drift" and f["first_utime"]:
+                x = p.X(f["first_utime"] / an.DAY_US)
+                p.raw(f'<rect x="{x:.1f}" y="{p.Y(y) - 2:.1f}" width="{max(1.0, p.X(xhi + 1) - x):.1f}" height="4" '
+                      f'fill="#ff7f0e" fill-opacity="0.6"><title>{html.escape(f["why"])}</title></rect>')
+    svg = p.render(yticks=False)
+    labels = "".join(f'<text x="{p.ml - 4}" y="{p.Y(i) + 3.5:.1f}" font-size="10" text-anchor="end">{html.escape(rid)}</text>'
+                     for i, rid in enumerate(attention))
+    return svg.replace("</svg>", labels + "</svg>")
+
+
+def fleet_effect_svg(robots, f, xlo, xhi):
+    """The share of the fleet's diagnosed recordings, per week, in which the effect was found."""
+    key = f["subject"]
+    weeks = {}
+    for rob in robots.values():
+        for r in rob["recordings"]:
+            if r.diag_exit == 0 and r.day is not None:
+                w = math.floor((r.day - 4) / 7) * 7 + 4  # weeks from Monday
+                n, k = weeks.get(w, (0, 0))
+                weeks[w] = (n + 1, k + (key in r.effects))
+    xs = sorted(weeks)
+    share = [100.0 * weeks[w][1] / weeks[w][0] for w in xs]
+    p = Plot(title=f"{key}: share of the week's recordings in which it is found", ylabel="%",
+             xlo=xlo - 3, xhi=xhi + 4, ylo=0, yhi=max(share + [10]) * 1.1)
+    for w, v in zip(xs, share):
+        p.raw(f'<rect x="{p.X(w) + 1:.1f}" y="{p.Y(v):.1f}" width="{max(1.0, p.X(w + 7) - p.X(w) - 2):.1f}" '
+              f'height="{p.Y(0) - p.Y(v):.1f}" fill="#6a3d9a" fill-opacity="0.75"><title>week of '
+              f'{an.date(w * an.DAY_US)}: {weeks[w][1]} of {weeks[w][0]}</title></rect>')
+    p.vline(f["first_utime"] / an.DAY_US, color="#d62728", label="appears")
+    return p.render()

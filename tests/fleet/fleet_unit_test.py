@@ -1,0 +1,138 @@
+"""agvcal-fleet without a cluster: the statistics on series with a known answer (drift and
+step found where they are, the family-wise false-alarm rate on constant fleets, the pooled
+noise scale when the sigmas are optimistic), fleet.yaml errors (exit 2, one line naming the
+file and the key), the folder-tree form, the schema migration, --help everywhere."""
+import math
+import os
+import random
+import sqlite3
+import sys
+
+sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
+from fleetlib import check, finish, fleet, tmpdir  # noqa: E402
+
+from agvcal_fleet import analyze as an  # noqa: E402
+from agvcal_fleet import stats  # noqa: E402
+
+rng = random.Random(20)
+
+# -- single series ---------------------------------------------------------------------------
+t = [float(i * 7) for i in range(10)]
+s = [0.01] * 10
+y = [1 + 0.002 * ti + rng.gauss(0, 0.01) for ti in t]  # 0.14 over the span: 14 sigma
+d = stats.drift_test(t, y, s)
+check(abs(d["slope"] - 0.002) < 4 * d["slope_std"] and d["p"] < 1e-10, "drift: slope within its sigma, p small",
+      str(d))
+y = [1 + (0.05 if i >= 6 else 0) + rng.gauss(0, 0.01) for i in range(10)]
+st = stats.step_test(y, s)
+check(st["k"] == 6 and abs(st["size"] - 0.05) < 4 * st["size_std"] and st["splits"] == 7,
+      "step: change point at the injected index, size within its sigma, 7 splits counted", str(st))
+check(stats.step_test(y[:3], s[:3]) is None, "step: no test with fewer than 4 values")
+check(abs(stats.chi2_median(10) - 9.342) < 0.01, "chi-square median (Wilson-Hilferty)")
+check(abs(stats.binomial_sf(2, 10, 0.1) - (1 - 0.9 ** 10 - 10 * 0.1 * 0.9 ** 9)) < 1e-12, "binomial tail")
+check(abs(stats.p_two_sided(1.959964) - 0.05) < 1e-6, "two-sided normal p-value")
+
+
+# -- fleets of fake recordings ----------------------------------------------------------------
+def fake_fleet(n_robots, rng, sigma_factor=1.0, drift=None, step=None, m=10):
+    """Robots with 6 parameters each, true value constant unless DRIFT / STEP name a robot;
+    the reported sigma is the true noise / SIGMA_FACTOR."""
+    robots = {}
+    for i in range(n_robots):
+        recs = []
+        for k in range(m):
+            r = an.Recording()
+            r.sha, r.path, r.utime = f"{i}-{k}", f"r{i}_{k}.log", int((20000 + 7 * k + rng.random()) * an.DAY_US)
+            r.day = r.utime / an.DAY_US
+            r.solve_exit = r.diag_exit = r.info_exit = 0
+            r.solve_message = r.diag_message = r.info_message = ""
+            r.heldout, r.effects, r.params = {}, {}, {}
+            r.distance_m = r.duration_s = None
+            for j in range(6):
+                noise = 0.001 * (1 + j)
+                true = 0.1 * (j + 1)
+                if drift == (i, j):
+                    true += 12 * noise * k / (m - 1)
+                if step == (i, j) and k >= m // 2:
+                    true += 8 * noise
+                r.params[f"p{j}"] = (true + rng.gauss(0, noise), noise / sigma_factor, 0.1 * (j + 1))
+            recs.append(r)
+        robots[f"r{i:03d}"] = {"drive": "differential", "robot_file": "x", "recordings": recs}
+    return robots
+
+
+def trend_findings(res):
+    return [f for f in res["findings"] if f["kind"] in ("drift", "step")]
+
+
+res = an.analyze(fake_fleet(300, rng))
+check(not trend_findings(res) and res["tests"] == 3600, "300 constant robots x 6 parameters: no flag (3600 tests)",
+      str([f["why"] for f in trend_findings(res)][:3]))
+res = an.analyze(fake_fleet(300, rng, sigma_factor=2.0))
+sc = max(res["scales"].values())
+check(not trend_findings(res) and 1.6 < min(res["scales"].values()) and sc < 2.4,
+      f"sigmas 2x optimistic: the pooled noise scale finds it ({min(res['scales'].values()):.2f}-{sc:.2f}), no flag")
+fw = sum(bool(trend_findings(an.analyze(fake_fleet(40, rng)))) for _ in range(60))
+check(fw <= 3, f"family-wise false alarms on 60 constant fleets of 40 robots at alpha 0.01: {fw} (expected <= 0.6)")
+res = an.analyze(fake_fleet(200, rng, drift=(17, 2), step=(101, 4)))
+got = {(f["robot_id"], f["subject"], f["kind"]) for f in trend_findings(res)}
+check(got == {("r017", "p2", "drift"), ("r101", "p4", "step")}, "among 200 robots: the drift and the step, nothing else",
+      str(got))
+stp = next(f for f in res["findings"] if f["kind"] == "step")
+check(stp["detail"]["change_index"] == 5 and stp["first_sha256"] == "101-5", "the step's first recording at the new level")
+dr = next(f for f in res["findings"] if f["kind"] == "drift")
+check(abs(dr["size"] - 0.036) < 3 * dr["size_std"], f"the drift's size over the span ({dr['size']:.4f} ± {dr['size_std']:.4f}, true 0.036)")
+
+# -- fleet.yaml ----------------------------------------------------------------------------
+tmp = tmpdir()
+robot = os.path.join(os.path.dirname(os.path.abspath(__file__)), "..", "..", "config", "robots", "diff_robot.yaml")
+cases = [
+    ("robots: [a, b]\n", "robots"),
+    ("fleet: {}\n", "robots"),
+    (f"robots:\n  a: {{robot: {robot}}}\n", "robots.a.recordings"),
+    ("robots:\n  a: {robot: nosuch.yaml, recordings: '*.log'}\n", "robots.a.robot"),
+    (f"robots:\n  a: {{robot: {robot}, recordings: '*.log', colour: red}}\n", "robots.a.colour"),
+    ("robots:\n  a: {robot: x\n", "line"),
+]
+for i, (text, key) in enumerate(cases):
+    fy = os.path.join(tmp, f"bad{i}.yaml")
+    open(fy, "w").write(text)
+    p = fleet("run", fy, "--db", os.path.join(tmp, "x.sqlite"))
+    check(p.returncode == 2 and fy in p.stderr and key in p.stderr and p.stderr.count("\n") == 1,
+          f"broken fleet.yaml ({key}): exit 2, one line naming the file and the key", p.stderr)
+p = fleet("run", os.path.join(tmp, "nosuch.yaml"))
+check(p.returncode == 2 and "nosuch.yaml" in p.stderr, "a fleet file that does not exist: exit 2", p.stderr)
+p = fleet("run", tmp, "--db", os.path.join(tmp, "x.sqlite"))
+check(p.returncode == 2 and "robot.yaml" in p.stderr, "a folder without robots: exit 2", p.stderr)
+p = fleet("run", "--workers", "0", os.path.join(tmp, "bad0.yaml"))
+check(p.returncode == 2, "--workers 0: exit 2", p.stderr)
+
+from agvcal_fleet import fleetfile  # noqa: E402
+tree = os.path.join(tmp, "tree")
+for rid in ("site-a/agv-1", "site-a/agv-2"):
+    os.makedirs(os.path.join(tree, rid, "2025-01"))
+    open(os.path.join(tree, rid, "robot.yaml"), "w").write(open(robot).read())
+    for k in range(2):
+        open(os.path.join(tree, rid, "2025-01", f"{k}.log"), "w").write("x")
+rs = fleetfile.load(tree)
+check([(r.robot_id, len(r.recordings)) for r in rs] == [("site-a/agv-1", 2), ("site-a/agv-2", 2)],
+      "a folder tree: every folder with a robot.yaml is a robot, its *.log below its recordings", str(rs))
+
+# -- schema ------------------------------------------------------------------------------------
+db = os.path.join(tmp, "m.sqlite")
+p1, p2 = fleet("migrate", "--db", db), fleet("migrate", "--db", db)
+check("applied 1" in p1.stdout and "up to date" in p2.stdout, "migrate creates, then finds it up to date", p1.stdout + p2.stdout)
+con = sqlite3.connect(db)
+tables = {r[0] for r in con.execute("SELECT name FROM sqlite_master WHERE type = 'table'")}
+check({"robots", "recordings", "calibrations", "calibration_params", "diagnoses", "diagnosis_effects", "runs",
+       "tasks", "findings", "schema_version"} <= tables, "the tables of docs/fleet.md", str(sorted(tables)))
+con.execute("UPDATE schema_version SET version = 99")
+con.commit()
+con.close()
+p = fleet("migrate", "--db", db)
+check(p.returncode == 2 and "newer" in p.stderr, "a database from a newer tool: exit 2", p.stderr)
+
+for sub in ("", "run", "analyze", "report", "migrate", "synth"):
+    p = fleet(*([sub] if sub else []), "--help")
+    check(p.returncode == 0 and "usage: agvcal-fleet" in p.stdout, f"agvcal-fleet {sub} --help".replace("  ", " "))
+finish()
