@@ -68,6 +68,7 @@ void ReadCalibrationStream(const RobotDescription& robot, const std::string& log
   }
   if (handlers.imu) SubscribeImu(&source, ImuChannel(robot), handlers.imu);
   if (handlers.pose) SubscribePoses(&source, PoseChannel(robot), handlers.pose);
+  if (handlers.dropped) source.set_on_drop(handlers.dropped);
   while (source.HandleNext(0)) {
     if (handlers.event) handlers.event();
   }
@@ -100,6 +101,7 @@ CalibrationData ReadCalibrationData(const RobotDescription& robot, const std::st
   handlers.progress = progress;
   handlers.wheels = [&](const WheelSample& sample) { data.AddWheels(sample); };
   handlers.motion = [&](const SensorMotion& m) { data.AddMotion(m); };
+  handlers.dropped = [&](const std::string& note) { data.AddDropped(note); };
   if (source == MotionSource::kPose) handlers.pose = [&](const StampedPose& p) { data.AddPose(p); };
   if (source == MotionSource::kImu) handlers.imu = [&](const ImuSample& s) { data.AddImu(s); };
   int64_t count = 0;
@@ -123,10 +125,13 @@ CalibrationResult SolveLog(const RobotDescription& robot, const std::string& log
                      std::to_string(count) + " " + MotionSourceName(source) +
                      (source == MotionSource::kImu ? " samples" : " motions") + "; calibrating");
   }
-  if (source == MotionSource::kImu) {
-    return ToCalibrationResult(robot, CalibrateWithImu(robot, data.wheels(), data.imu(), options.imu, log_path));
-  }
-  return Calibrate(robot, data.wheels(), data.motions(), source, options.calibration, log_path);
+  CalibrationResult result =
+      source == MotionSource::kImu
+          ? ToCalibrationResult(robot, CalibrateWithImu(robot, data.wheels(), data.imu(), options.imu, log_path))
+          : Calibrate(robot, data.wheels(), data.motions(), source, options.calibration, log_path);
+  result.input_dropped = data.dropped_input();
+  result.input_notes = data.drop_notes();
+  return result;
 }
 
 }  // namespace calib
