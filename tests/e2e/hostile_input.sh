@@ -40,4 +40,27 @@ for key in "r['residual']['intervals']" "r['input']['dropped'] if 'input' in r e
   [ "$got" = "$want" ] && pass "+8.4 s stamp: $key = $got" || fail "+8.4 s stamp: $key = $got, expected $want"
 done
 
+# Item 9: messages that name the real problem.
+sed 's/drive_radius: *[0-9.]*/drive_radius: 1e308/' $robot >"$TMP/huge_radius.yaml"
+grep -q "drive_radius: 1e308" "$TMP/huge_radius.yaml" || fail "test robot file not made"
+expect_status 2 "robot file: drive_radius 1e308" "$AGVCAL" solve "$TMP/huge_radius.yaml" $log --quiet
+stderr_has "huge_radius.yaml"; stderr_has "params.drive_radius"; stderr_has "must be at most 100 m"
+sed 's/^lidar2d: {channel: SCAN/lidar2d: {channel: NOPE/' $robot >"$TMP/nope.yaml"
+grep -q "channel: NOPE" "$TMP/nope.yaml" || fail "test robot file not made"
+expect_status 2 "robot file: lidar2d channel NOPE" "$AGVCAL" solve "$TMP/nope.yaml" $log --quiet
+stderr_has "NOPE"
+if grep -q "differential" "$TMP/stderr"; then fail "blames the IMU: $(cat "$TMP/stderr")"; else pass "does not blame the IMU"; fi
+# A clean dual-steer recording too short for the diagnosis: exit 3 (too little data), not 2.
+python3 - logs/dual_steer_demo.log "$TMP/short.log" <<'PY'
+import struct, sys
+data = open(sys.argv[1], 'rb').read()
+pos = 0
+while pos < 0.8 * len(data):
+    _, _, _, channel_len, data_len = struct.unpack('>IqqII', data[pos:pos + 28])
+    pos += 28 + channel_len + data_len
+open(sys.argv[2], 'wb').write(data[:pos])
+PY
+expect_status 3 "diagnose: a short clean dual-steer recording" "$AGVCAL" diagnose config/robots/dual_steer_agv.yaml "$TMP/short.log" --quiet
+stderr_has "short.log"; stderr_has "usable intervals"; stderr_has "needs at least 40"
+
 finish

@@ -22,8 +22,10 @@ MotionSource ChooseMotionSource(const RobotDescription& robot, const std::string
   const std::string scan = ScanChannel(robot);
   const std::string pose = PoseChannel(robot);
   const std::string imu = ImuChannel(robot);
-  if (requested == MotionSource::kImu ||
-      (!requested && !has(scan) && !has(pose) && robot.imu && has(imu))) {
+  // The IMU is chosen by itself only where its calibration applies (differential drives):
+  // otherwise a robot whose lidar channel is absent hears about the lidar, not the IMU.
+  if (requested == MotionSource::kImu || (!requested && !has(scan) && !has(pose) && robot.imu && has(imu) &&
+                                          robot.drive == DriveType::kDifferential)) {
     if (!robot.imu) throw InputError(robot.source_file, "imu", "no IMU in the robot file (needed for --source imu)");
     if (!has(imu)) throw InputError(log_path, "channel " + imu, "not in the recording (needed for the IMU)");
     return MotionSource::kImu;
