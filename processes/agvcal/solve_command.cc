@@ -87,6 +87,11 @@ int Solve(int argc, char** argv) {
   if (!args.Has("--quiet")) options.progress = [](const std::string& line) { std::cerr << line << "\n"; };
 
   const calib::CalibrationResult result = calib::SolveLog(robot, log_path, options);
+  // Said even with --quiet: the result stands on less than the recording holds.
+  for (const std::string& note : result.input_notes) std::cerr << "agvcal: left out: " << note << "\n";
+  if (result.input_dropped > 0)
+    std::cerr << "agvcal: " << result.input_dropped << " message(s) of " << log_path
+              << " left out of the fit (RESULT.json input.notes)\n";
 
   std::printf("%s drive, %d intervals (%d outliers), residual rms %.2f mm, %.2f mm, %.3f deg\n",
               calib::DriveTypeName(result.drive), result.residual.intervals, result.residual.outliers,

@@ -12,6 +12,18 @@ namespace agvcal_process {
 BusSource::BusSource(const std::string& url, std::string program)
     : lcm_(url), program_(std::move(program)), from_file_(url.rfind("file://", 0) == 0) {
   RequireGoodBus(lcm_, url);
+  // Left-out samples are said as they come (the first few: a broken encoder would flood).
+  set_on_drop([this](const std::string& note) {
+    if (dropped() <= int64_t(kMaxDropNotes)) std::cerr << program_ << ": left out: " << note << "\n";
+  });
+}
+
+std::string BusSource::InputNote() const {
+  std::string note;
+  if (skipped_ > 0)
+    note += "; " + std::to_string(skipped_) + (skipped_ == 1 ? " bad message" : " bad messages") + " skipped";
+  if (dropped() > 0) note += "; " + std::to_string(dropped()) + " left out";
+  return note;
 }
 
 void BusSource::SubscribeRaw(const std::string& channel, RawHandler handler) {

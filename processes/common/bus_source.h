@@ -69,6 +69,12 @@ class BusSource : public calib::MessageSource {
   // received, to compare with a recording's counts.
   int64_t received(const std::string& channel) const;
   int64_t skipped() const { return skipped_; }     // bad messages
+  // "; 2 bad messages skipped; 1 left out" (skipped(), dropped()), or "" when none.
+  std::string InputNote() const;
+  // The heartbeat's state carries InputNote() from now on (and so the dashboard).
+  void ReportOn(Heartbeat* heartbeat) {
+    heartbeat->set_note([this] { return InputNote(); });
+  }
   int64_t duplicates() const { return filter_.rejected(); }
 
   // The bus, for publishing.

@@ -48,7 +48,7 @@ void Heartbeat::Beat(const std::string& state, bool force) {
   msg.utime = now;
   msg.process = process_;
   msg.pid = static_cast<int32_t>(getpid());
-  msg.state = state;
+  msg.state = note_ ? state + note_() : state;
   lcm_->publish(calib::kHeartbeatChannel, &msg);
 }
 

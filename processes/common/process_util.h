@@ -8,6 +8,7 @@
 
 #include <atomic>
 #include <cstdint>
+#include <functional>
 #include <map>
 #include <optional>
 #include <string>
@@ -49,10 +50,13 @@ class Heartbeat {
  public:
   Heartbeat(lcm::LCM* lcm, std::string process) : lcm_(lcm), process_(std::move(process)) {}
   void Beat(const std::string& state, bool force = false);
+  // Appended to every state ("; 1 bad message skipped"): BusSource::ReportOn.
+  void set_note(std::function<std::string()> note) { note_ = std::move(note); }
 
  private:
   lcm::LCM* lcm_;
   std::string process_;
+  std::function<std::string()> note_;
   int64_t last_ = 0;
 };
 

@@ -44,6 +44,7 @@ int Run(int argc, char** argv) {
   calib::SubscribeWheels(&bus, robot, [&](const calib::WheelSample& sample) { fused.AddWheels(sample); });
   calib::SubscribeImu(&bus, robot.imu->channel, [&](const calib::ImuSample& sample) { fused.AddImu(sample); });
   Heartbeat heartbeat(&bus.lcm(), "fusion");
+  bus.ReportOn(&heartbeat);
   InstallStopHandlers();
   std::cerr << "agvcal-fusion: " << robot.name << ", WHEELS + " << robot.imu->channel << " -> "
             << calib::kOdomFusedChannel << "\n";

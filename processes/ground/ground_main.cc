@@ -83,6 +83,7 @@ int Run(int argc, char** argv) {
     return std::to_string(session.clouds()) + " clouds, " + (state.empty() ? "waiting" : state);
   };
   Heartbeat heartbeat(&bus.lcm(), "ground");
+  bus.ReportOn(&heartbeat);
   InstallStopHandlers();
   std::cerr << "agvcal-ground: " << robot.name << ", listening on " << session.cloud_channel()
             << (session.angle_channel().empty() ? "" : " and " + session.angle_channel()) << "\n";

@@ -62,6 +62,7 @@ int Run(int argc, char** argv) {
   const std::string pose_channel = calib::PoseChannel(robot);
   calib::SubscribePoses(&bus, pose_channel, [&](const calib::StampedPose& pose) { recorder.AddPose(pose); });
   Heartbeat heartbeat(&bus.lcm(), "recal");
+  bus.ReportOn(&heartbeat);
   InstallStopHandlers();
 
   std::future<calib::RecalDecision> pending;

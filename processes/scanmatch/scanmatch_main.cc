@@ -40,6 +40,7 @@ int Run(int argc, char** argv) {
   calib::SubscribeWheels(&bus, robot, [&](const calib::WheelSample& sample) { pipeline.AddWheels(sample); });
   calib::SubscribeScans(&bus, robot.lidar2d->channel, [&](calib::LaserScan scan) { pipeline.AddScan(scan); });
   Heartbeat heartbeat(&bus.lcm(), "scanmatch");
+  bus.ReportOn(&heartbeat);
   InstallStopHandlers();
   std::cerr << "agvcal-scanmatch: " << robot.name << ", matching " << robot.lidar2d->channel
             << " with WHEELS, publishing " << calib::kScanMatchChannel << "\n";

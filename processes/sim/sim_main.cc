@@ -45,6 +45,7 @@ int Run(int argc, char** argv) {
   calib::SubscribeDriveCommands(&bus, sim.config().robot,
                                 [&sim](const calib::DriveCommand& command) { sim.ApplyCommand(command); });
   Heartbeat heartbeat(&bus.lcm(), "sim");
+  bus.ReportOn(&heartbeat);
   InstallStopHandlers();
 
   // Simulated time follows the wall clock (times `speed`); commands are

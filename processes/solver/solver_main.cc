@@ -139,6 +139,7 @@ int Run(int argc, char** argv) {
   solver.set_every(static_cast<std::size_t>(every));
   solver.Subscribe(&bus);
   Heartbeat heartbeat(&bus.lcm(), "solver");
+  bus.ReportOn(&heartbeat);
   InstallStopHandlers();
   if (args.Has("--catch-up")) {
     solver.set_holding_solves(true);
@@ -152,8 +153,12 @@ int Run(int argc, char** argv) {
   // Messages already received when the stop came (e.g. the scan matcher's last
   // matches, sent just before it stopped) still count.
   bus.HandleQueued();
+  bus.Finish();  // a wheel sample held after a gap
   if (bus.skipped() > 0) std::cerr << "agvcal-solver: " << bus.skipped() << " unusable messages skipped\n";
-  const calib::CalibrationResult result = solver.Solve(true);
+  if (bus.dropped() > 0) std::cerr << "agvcal-solver: " << bus.dropped() << " message(s) left out of the fit\n";
+  calib::CalibrationResult result = solver.Solve(true);
+  result.input_dropped = bus.dropped();
+  result.input_notes = bus.drop_notes();
   if (args.Has("--out")) calib::WriteFileAtomically(args.Get("--out", ""), calib::CalibrationResultJson(result));
   std::cerr << "agvcal-solver: final solve on " << result.residual.intervals << " intervals\n";
   return calib::kExitOk;

@@ -4,6 +4,8 @@
 
 #include <Eigen/Dense>
 
+#include "calib/io/message_source.h"
+
 namespace calib {
 
 void CalibrationData::AddWheels(const WheelSample& sample) {
@@ -23,6 +25,11 @@ void CalibrationData::AddPose(const StampedPose& message) {
 void CalibrationData::AddMotion(const SensorMotion& motion) { motions_.push_back(motion); }
 
 void CalibrationData::AddImu(const ImuSample& sample) { imu_.push_back(sample); }
+
+void CalibrationData::AddDropped(const std::string& note) {
+  ++dropped_input_;
+  if (drop_notes_.size() < MessageSource::kMaxDropNotes) drop_notes_.push_back(note);
+}
 
 std::optional<SensorMotion> PoseIntervals::Add(const StampedPose& pose) {
   if (!start_) {

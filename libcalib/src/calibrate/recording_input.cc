@@ -22,8 +22,10 @@ MotionSource ChooseMotionSource(const RobotDescription& robot, const std::string
   const std::string scan = ScanChannel(robot);
   const std::string pose = PoseChannel(robot);
   const std::string imu = ImuChannel(robot);
-  if (requested == MotionSource::kImu ||
-      (!requested && !has(scan) && !has(pose) && robot.imu && has(imu))) {
+  // The IMU is chosen by itself only where its calibration applies (differential drives):
+  // otherwise a robot whose lidar channel is absent hears about the lidar, not the IMU.
+  if (requested == MotionSource::kImu || (!requested && !has(scan) && !has(pose) && robot.imu && has(imu) &&
+                                          robot.drive == DriveType::kDifferential)) {
     if (!robot.imu) throw InputError(robot.source_file, "imu", "no IMU in the robot file (needed for --source imu)");
     if (!has(imu)) throw InputError(log_path, "channel " + imu, "not in the recording (needed for the IMU)");
     return MotionSource::kImu;
@@ -68,6 +70,7 @@ void ReadCalibrationStream(const RobotDescription& robot, const std::string& log
   }
   if (handlers.imu) SubscribeImu(&source, ImuChannel(robot), handlers.imu);
   if (handlers.pose) SubscribePoses(&source, PoseChannel(robot), handlers.pose);
+  if (handlers.dropped) source.set_on_drop(handlers.dropped);
   while (source.HandleNext(0)) {
     if (handlers.event) handlers.event();
   }
@@ -100,6 +103,7 @@ CalibrationData ReadCalibrationData(const RobotDescription& robot, const std::st
   handlers.progress = progress;
   handlers.wheels = [&](const WheelSample& sample) { data.AddWheels(sample); };
   handlers.motion = [&](const SensorMotion& m) { data.AddMotion(m); };
+  handlers.dropped = [&](const std::string& note) { data.AddDropped(note); };
   if (source == MotionSource::kPose) handlers.pose = [&](const StampedPose& p) { data.AddPose(p); };
   if (source == MotionSource::kImu) handlers.imu = [&](const ImuSample& s) { data.AddImu(s); };
   int64_t count = 0;
@@ -123,10 +127,13 @@ CalibrationResult SolveLog(const RobotDescription& robot, const std::string& log
                      std::to_string(count) + " " + MotionSourceName(source) +
                      (source == MotionSource::kImu ? " samples" : " motions") + "; calibrating");
   }
-  if (source == MotionSource::kImu) {
-    return ToCalibrationResult(robot, CalibrateWithImu(robot, data.wheels(), data.imu(), options.imu, log_path));
-  }
-  return Calibrate(robot, data.wheels(), data.motions(), source, options.calibration, log_path);
+  CalibrationResult result =
+      source == MotionSource::kImu
+          ? ToCalibrationResult(robot, CalibrateWithImu(robot, data.wheels(), data.imu(), options.imu, log_path))
+          : Calibrate(robot, data.wheels(), data.motions(), source, options.calibration, log_path);
+  result.input_dropped = data.dropped_input();
+  result.input_notes = data.drop_notes();
+  return result;
 }
 
 }  // namespace calib

@@ -75,6 +75,10 @@ std::map<std::string, std::string> ReadWheels(const Reporter& reporter, const Fi
   return wheels;
 }
 
+// No wheel, track or wheel position of a vehicle is this large: a value beyond it is a typo or
+// a unit slip, which would otherwise surface as an unusable log ("only 4 usable intervals").
+constexpr double kMaxLengthM = 100.0;
+
 std::map<std::string, double> ReadParams(const Reporter& reporter, const Field& field,
                                          DriveType drive) {
   const std::vector<std::string>& names = ParamNames(drive);
@@ -88,13 +92,13 @@ std::map<std::string, double> ReadParams(const Reporter& reporter, const Field& 
                            (name.size() >= 7 && name.compare(name.size() - 7, 7, "_radius") == 0);
     const bool is_offset = name.size() >= 12 &&
                            name.compare(name.size() - 12, 12, "steer_offset") == 0;
-    if (is_length) {
-      params[name] = ReadPositive(reporter, param);
-    } else if (is_offset) {
+    if (is_offset) {
       params[name] = ReadBounded(reporter, param, kHalfPi, "pi/2");
-    } else {
-      params[name] = ReadNumber(reporter, param);
+      continue;
     }
+    params[name] = is_length ? ReadPositive(reporter, param) : ReadNumber(reporter, param);
+    if (std::abs(params[name]) > kMaxLengthM)
+      reporter.Fail(param, "must be at most 100 m in size, got " + Describe(param.value));
   }
   if (drive == DriveType::kDualSteer && params["a"] == 0.0 && params["b"] == 0.0) {
     reporter.Fail(map.Get("a").line, map.path() + ".a",

@@ -315,10 +315,12 @@ void Diagnoser::BuildIntervals() {
   }
   std::stable_sort(usable.begin(), usable.end(),
                    [](const SensorMotion* a, const SensorMotion* b) { return a->utime_start < b->utime_start; });
+  // Too little data is exit 3 (spec/cli.md), as for the calibration: the recording is
+  // fine, it is only too short to tell an effect from noise.
   if (usable.size() < 40)
-    throw InputError(origin_, "sensor motions",
-                     "only " + std::to_string(usable.size()) +
-                         " usable intervals with encoder data; the diagnosis needs at least 40");
+    throw UnobservableError(origin_ + ": only " + std::to_string(usable.size()) +
+                                " usable intervals with encoder data; the diagnosis needs at least 40",
+                            "record a longer run (more scan-matched motion)");
   std::map<std::pair<int64_t, int64_t>, const SensorMotion*> spread;
   for (const SensorMotion& m : data_.motions_spread)
     if (m.valid) spread[{m.utime_start, m.utime_end}] = &m;

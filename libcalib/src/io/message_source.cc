@@ -1,6 +1,9 @@
 #include "calib/io/message_source.h"
 
+#include <memory>
 #include <utility>
+
+#include "calib/core/wheel_track.h"
 
 namespace calib {
 
@@ -14,6 +17,19 @@ std::string MessageSource::origin() const {
   return where.empty() ? file() : file() + ": " + where;
 }
 
+void MessageSource::Drop(const std::string& origin, const std::string& problem) {
+  ++dropped_;
+  const std::string note = origin + ": " + problem;
+  if (drop_notes_.size() < kMaxDropNotes) drop_notes_.push_back(note);
+  if (on_drop_) on_drop_(note);
+}
+
+void MessageSource::Finish() {
+  if (finished_) return;
+  finished_ = true;
+  for (const auto& flush : finishers_) flush();
+}
+
 RecordingSource::RecordingSource(const std::string& path, Mode mode) : reader_(path), mode_(mode) {}
 
 void RecordingSource::SubscribeRaw(const std::string& channel, RawHandler handler) {
@@ -25,6 +41,7 @@ bool RecordingSource::HandleNext(int) {
   const bool read = mode_ == Mode::kGrowing ? reader_.NextComplete(&event_) : reader_.Next(&event_);
   if (!read) {
     ended_ = mode_ == Mode::kComplete;
+    if (ended_) Finish();
     return false;
   }
   const auto it = handlers_.find(event_.channel);
@@ -40,10 +57,16 @@ std::string RecordingSource::place() const {
 
 void SubscribeWheels(MessageSource* source, const RobotDescription& robot,
                      std::function<void(const WheelSample&)> handler) {
+  auto gate = std::make_shared<WheelSampleGate>(
+      robot, [source](const std::string& origin, const std::string& problem) { source->Drop(origin, problem); });
+  auto shared_handler = std::make_shared<std::function<void(const WheelSample&)>>(std::move(handler));
   source->Subscribe<agvcal::wheel_state_t>(
-      kWheelsChannel, [robot, handler = std::move(handler)](const agvcal::wheel_state_t& m, const std::string& origin) {
-        handler(WheelSampleFromMessage(m, robot, origin));
+      kWheelsChannel, [robot, gate, shared_handler](const agvcal::wheel_state_t& m, const std::string& origin) {
+        for (const WheelSample& s : gate->Add(WheelSampleFromMessage(m, robot, origin), origin)) (*shared_handler)(s);
       });
+  source->AtFinish([gate, shared_handler]() {
+    for (const WheelSample& s : gate->Finish()) (*shared_handler)(s);
+  });
 }
 
 void SubscribeScans(MessageSource* source, const std::string& channel, std::function<void(LaserScan)> handler) {

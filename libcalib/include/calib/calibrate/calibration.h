@@ -102,6 +102,10 @@ struct CalibrationResult {
   Eigen::MatrixXd covariance;
   std::vector<IntervalResidual> intervals;
   std::optional<HeldoutComparison> heldout;
+  // Input left out before the fit (calib/io/message_source.h, Drop): how many messages and
+  // the first notes naming them. Not set by Calibrate, which sees only what was kept.
+  int64_t input_dropped = 0;
+  std::vector<std::string> input_notes;
 };
 
 // Calibrates from the encoders and the sensor motions. The nominal values come

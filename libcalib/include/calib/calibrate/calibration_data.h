@@ -47,12 +47,16 @@ class CalibrationData {
   void AddMotion(const SensorMotion& motion);
   // An IMU sample (the IMU-referenced calibration).
   void AddImu(const ImuSample& sample);
+  // A message the source left out (MessageSource::Drop), counted with its note.
+  void AddDropped(const std::string& note);
 
   const WheelTrack& wheels() const { return wheels_; }
   const std::vector<SensorMotion>& motions() const { return motions_; }
   const std::vector<ImuSample>& imu() const { return imu_; }
   int64_t dropped_wheels() const { return dropped_wheels_; }
   int64_t dropped_poses() const { return dropped_poses_; }
+  int64_t dropped_input() const { return dropped_input_; }
+  const std::vector<std::string>& drop_notes() const { return drop_notes_; }
 
  private:
   const RobotDescription& robot_;
@@ -61,7 +65,8 @@ class CalibrationData {
   std::vector<ImuSample> imu_;
   std::optional<StampedPose> last_pose_;
   PoseIntervals pose_intervals_;
-  int64_t dropped_wheels_ = 0, dropped_poses_ = 0;
+  int64_t dropped_wheels_ = 0, dropped_poses_ = 0, dropped_input_ = 0;
+  std::vector<std::string> drop_notes_;  // the first MessageSource::kMaxDropNotes
 };
 
 // The motion between two poses of an external source, with its covariance in

@@ -42,6 +42,7 @@ struct CalibrationStreamHandlers {
   std::function<void()> event;                          // after every event of the log
   std::function<void(LaserScan*)> adjust_scan;           // applied to each scan before matching
   std::function<void(const std::string&)> progress;     // the scan matcher's counts at the end
+  std::function<void(const std::string&)> dropped;      // a message left out (MessageSource::Drop)
 };
 
 // Feeds the log's WHEELS, scan matches (when `match_scans`: the robot file's 2D lidar channel

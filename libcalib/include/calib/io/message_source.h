@@ -62,11 +62,34 @@ class MessageSource {
   virtual std::string place() const = 0;
   std::string origin() const;
 
+  // A message that decoded and converted but is left out (a wheel sample that cannot be
+  // physically true, a stamp out of order: core/wheel_track.h's WheelSampleGate): counted,
+  // the first kMaxDropNotes kept ("run.log: event 12 (WHEELS): wheel 'drive' position jumps
+  // ..."), each passed to the handler of set_on_drop. The owner says them (stderr, notes of
+  // RESULT.json); the source goes on.
+  static constexpr std::size_t kMaxDropNotes = 20;
+  void Drop(const std::string& origin, const std::string& problem);
+  int64_t dropped() const { return dropped_; }
+  const std::vector<std::string>& drop_notes() const { return drop_notes_; }
+  void set_on_drop(std::function<void(const std::string& note)> handler) { on_drop_ = std::move(handler); }
+
+  // What a subscription holds back to the end of the input (a wheel sample after a long
+  // gap, until its successor shows the gap real): `flush` passes it on. Called by Finish,
+  // which a RecordingSource calls at the recording's end and a live process before its
+  // final result.
+  void AtFinish(std::function<void()> flush) { finishers_.push_back(std::move(flush)); }
+  void Finish();
+
  protected:
   bool stop_requested() const { return stop_requested_; }
 
  private:
   bool stop_requested_ = false;
+  int64_t dropped_ = 0;
+  std::vector<std::string> drop_notes_;
+  std::function<void(const std::string&)> on_drop_;
+  std::vector<std::function<void()>> finishers_;
+  bool finished_ = false;
 };
 
 // An lcm-logger recording as a MessageSource: its events in file order, each handled
@@ -100,7 +123,8 @@ class RecordingSource : public MessageSource {
 
 // Subscriptions that hand over plain data: each decodes its channel's messages and
 // converts them with messages.h (the conversion's InputError makes a bad message);
-// `robot` is copied.
+// `robot` is copied. SubscribeWheels passes the samples through a WheelSampleGate
+// (core/wheel_track.h): what it drops goes to the source's Drop.
 void SubscribeWheels(MessageSource* source, const RobotDescription& robot,
                      std::function<void(const WheelSample&)> handler);  // WHEELS
 void SubscribeScans(MessageSource* source, const std::string& channel,

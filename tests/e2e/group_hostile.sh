@@ -1,0 +1,73 @@
+#!/usr/bin/env bash
+# Hostile input through the live group (issue 17 items 4 and 5): the sample recording is
+# replayed through scripts/agvcal-group (lcm-logger, agvcal-scanmatch, agvcal-solver under
+# supervisord, in a private network namespace).
+#  - One WHEELS message with a non-finite position: the solver skips it and lives on (no
+#    restart), says so on its HEARTBEAT (what the dashboard shows) and writes RESULT.json.
+#  - Every SCAN with a NaN angle increment: no motion, the final solve fails, no RESULT.json:
+#    the group exits non-zero and gives the solver's reason.
+source "$(dirname "$0")/lib.bash" "$@"
+robot=config/robots/forklift.yaml
+log=logs/forklift_demo.log
+group() {  # group RUN_NAME RECORDING: the replay through the group
+  scripts/netns-run scripts/agvcal-group --replay "$2" --robot "$robot" --speed 2 \
+    --run-dir "$TMP/$1" >"$TMP/$1.out" 2>&1
+}
+# The states the solver's HEARTBEAT carried, from the group's recording.
+solver_states() {
+  python3 - "$1" <<'PY'
+import struct, sys
+data = open(sys.argv[1], 'rb').read()
+pos = 0
+while pos + 28 <= len(data):
+    _, _, _, channel_len, data_len = struct.unpack('>IqqII', data[pos:pos + 28])
+    start = pos + 28 + channel_len
+    if data[pos + 28:start] == b'HEARTBEAT':
+        at = start + 16
+        def text():
+            global at
+            (n,) = struct.unpack_from('>i', data, at)
+            at += 4 + n
+            return data[at - n:at - 1].decode()
+        process = text()
+        at += 4
+        state = text()
+        if process == 'solver':
+            print(state)
+    pos = start + data_len
+PY
+}
+
+python3 tests/tools/wheel_log.py $log "$TMP/nan.log" 1000 position drive nan
+group nan "$TMP/nan.log"; code=$?
+[ "$code" -eq 0 ] && pass "a NaN wheel position: the group ends with the replay (exit 0)" ||
+  fail "NaN wheel position: group exit $code: $(tail -3 "$TMP/nan.out")"
+spawns=$(grep -c "spawned: 'solver'" "$TMP/nan/supervisord.log")
+[ "$spawns" -eq 1 ] && pass "the solver was never restarted" || fail "solver spawned $spawns times: $(cat "$TMP/nan/solver.out")"
+grep -q "agvcal-solver: ignoring a message (reported once): .*WHEELS.*not finite" "$TMP/nan/solver.out" &&
+  pass "the solver says what it skipped" || fail "solver.out: $(cat "$TMP/nan/solver.out")"
+[ -s "$TMP/nan/RESULT.json" ] && pass "RESULT.json written" || fail "no RESULT.json"
+solver_states "$TMP/nan/recording.log" >"$TMP/states"
+grep -q "running; 1 bad message skipped" "$TMP/states" && pass "the solver's HEARTBEAT counts the skipped message" ||
+  fail "solver HEARTBEAT states: $(sort -u "$TMP/states" | head -5)"
+
+# Every scan's angle_increment (after the hash, utime and angle_min) NaN.
+python3 - $log "$TMP/noscan.log" <<'PY'
+import struct, sys
+data = bytearray(open(sys.argv[1], 'rb').read())
+pos = 0
+while pos + 28 <= len(data):
+    _, _, _, channel_len, data_len = struct.unpack('>IqqII', data[pos:pos + 28])
+    start = pos + 28 + channel_len
+    if data[pos + 28:start] == b'SCAN':
+        struct.pack_into('>I', data, start + 20, 0x7fc00000)
+    pos = start + data_len
+open(sys.argv[2], 'wb').write(data)
+PY
+group noscan "$TMP/noscan.log"; code=$?
+[ "$code" -ne 0 ] && pass "no usable scan: the group fails (exit $code)" || fail "no usable scan: group exit 0"
+[ ! -e "$TMP/noscan/RESULT.json" ] && pass "no RESULT.json" || fail "a RESULT.json: $(head -c 300 "$TMP/noscan/RESULT.json")"
+grep -q "agvcal-group: player finished, but the solver wrote no RESULT.json (agvcal-solver: error: " "$TMP/noscan.out" &&
+  pass "the group names the missing result and the solver's reason" || fail "group said: $(tail -3 "$TMP/noscan.out")"
+no_orphans
+finish
