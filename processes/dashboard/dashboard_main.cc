@@ -137,7 +137,12 @@ int Run(int argc, char** argv) {
   RequireGoodBus(lcm, url);
   calib::DashboardModel model(options);
   Listener listener(&model);
-  lcm.subscribe(".*", &Listener::OnMessage, &listener);
+  // LCM's default queue of 30 messages per subscription drops what arrives while the screen
+  // is drawn: the solver's final burst of CALIB_RESIDUALS (one per interval) then shows fewer
+  // intervals than its CALIB_ESTIMATE. A bounded larger queue keeps them; a flood beyond it
+  // still cannot grow the dashboard without limit.
+  if (lcm::Subscription* all = lcm.subscribe(".*", &Listener::OnMessage, &listener))
+    all->setQueueCapacity(100000 /* messages */);
 
   std::setlocale(LC_ALL, "");
   agvcal_dashboard::ViewState state;
