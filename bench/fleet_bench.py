@@ -103,6 +103,21 @@ class Netns:
         if int(out.strip().splitlines()[-1]) != len(self.workers):
             raise RuntimeError("the workers did not join: see " + os.path.join(work, "cluster.log"))
 
+    def cpu(self):
+        """CPU seconds of the scheduler and workers and everything they ran (their agvcal
+        children included once waited for)."""
+        import psutil
+        total = 0.0
+        for p in self.procs:
+            try:
+                pp = psutil.Process(p.pid)
+                for q in [pp] + pp.children(recursive=True):
+                    t = q.cpu_times()
+                    total += t.user + t.system + t.children_user + t.children_system
+            except psutil.Error:
+                pass
+        return total
+
     def close(self):
         for p in reversed(self.procs):
             p.terminate()
@@ -163,6 +178,9 @@ def main():
     ap.add_argument("--seed", type=int, default=2025)
     ap.add_argument("--skip-full", action="store_true", help="throughput runs only")
     ap.add_argument("--skip-netns", action="store_true")
+    ap.add_argument("--repeat", type=int, default=1,
+                    help="rounds of the throughput runs (the machine's other load varies)")
+    ap.add_argument("--reuse", action="store_true", help="keep a fleet already in WORK/fleet")
     ap.add_argument("--out", help="write the Markdown report here too")
     args = ap.parse_args()
     os.makedirs(args.work, exist_ok=True)
@@ -170,10 +188,11 @@ def main():
     lines = [f"Fleet benchmark: {args.robots} robots x {args.recordings} recordings over {args.days:g} days "
              f"(seed {args.seed}); {platform.node()}, {os.cpu_count()} cores, started at load {load():.1f}", ""]
     t0 = time.monotonic()
-    sh(["nice", "-n", str(args.nice), FLEET, "synth", fleet_dir, "--robots", str(args.robots), "--recordings",
-        str(args.recordings), "--days", str(args.days), "--seed", str(args.seed), "--broken", "2",
-        "--jobs", "2", "--quiet", "--force"])
-    lines.append(f"synthetic fleet made in {time.monotonic() - t0:.0f} s")
+    if not (args.reuse and os.path.exists(os.path.join(fleet_dir, "truth.json"))):
+        sh(["nice", "-n", str(args.nice), FLEET, "synth", fleet_dir, "--robots", str(args.robots),
+            "--recordings", str(args.recordings), "--days", str(args.days), "--seed", str(args.seed),
+            "--broken", "2", "--jobs", "2", "--quiet", "--force"])
+        lines.append(f"synthetic fleet made in {time.monotonic() - t0:.0f} s")
     fy = os.path.join(fleet_dir, "fleet.yaml")
 
     if not args.skip_full:
@@ -225,34 +244,44 @@ def main():
     with open(sub, "w") as f:
         f.writelines(keep + robots)
     lines += ["", f"## Throughput ({args.subset} robots, the first of the fleet; every run on an empty database)", "",
-              "| cluster | recordings | minutes | recordings/min | speed-up | CPU s per recording | load before, after |",
-              "|---|---|---|---|---|---|---|"]
-    base = None
+              "CPU cores used = the run's CPU time (client, workers, agvcal) over its wall time.", "",
+              "| round | cluster | recordings | minutes | recordings/min | CPU s per recording | CPU cores used | load before, after |",
+              "|---|---|---|---|---|---|---|---|"]
     dbs = []
+    rates = {}
     configs = [("LocalCluster, 1 worker", {"workers": 1}), ("LocalCluster, 2 workers", {"workers": 2})]
     if not args.skip_netns:
-        configs.append(("2 workers in separate network namespaces, TCP to the scheduler's", {"netns": 2}))
-    for label, cfg in configs:
-        db = os.path.join(args.work, f"sub-{len(dbs)}.sqlite")
-        if os.path.exists(db):
-            os.remove(db)
-        if "netns" in cfg:
-            ns = Netns(cfg["netns"], os.getpid() % 10000)
-            try:
-                ns.start(args.work, args.nice)
-                el, l0, l1, cpu = run_fleet(sub, db, scheduler="tcp://10.77.0.1:8786", nice=args.nice,
-                                            prefix=("ip", "netns", "exec", ns.hub))
-                cpu = None  # the workers are not this process's children
-            finally:
-                ns.close()
-        else:
-            el, l0, l1, cpu = run_fleet(sub, db, workers=cfg["workers"], nice=args.nice)
-        n = count(db)
-        rate = 60 * n / el
-        base = base or rate
-        lines.append(f"| {label} | {n} | {el / 60:.2f} | {rate:.1f} | {rate / base:.2f} | "
-                     f"{'' if cpu is None else f'{cpu / n:.2f}'} | {l0:.1f}, {l1:.1f} |")
-        dbs.append(db)
+        configs.append(("2 workers in network namespaces, TCP", {"netns": 2}))
+    for rnd in range(args.repeat):
+        order = configs[rnd % len(configs):] + configs[:rnd % len(configs)]  # rotate the order
+        for label, cfg in order:
+            db = os.path.join(args.work, f"sub-{len(dbs)}.sqlite")
+            if os.path.exists(db):
+                os.remove(db)
+            if "netns" in cfg:
+                ns = Netns(cfg["netns"], os.getpid() % 10000)
+                try:
+                    ns.start(args.work, args.nice)
+                    c0 = ns.cpu()
+                    el, l0, l1, cpu = run_fleet(sub, db, scheduler="tcp://10.77.0.1:8786", nice=args.nice,
+                                                prefix=("ip", "netns", "exec", ns.hub))
+                    cpu += ns.cpu() - c0
+                finally:
+                    ns.close()
+            else:
+                el, l0, l1, cpu = run_fleet(sub, db, workers=cfg["workers"], nice=args.nice)
+            n = count(db)
+            rates.setdefault(label, []).append((60 * n / el, cpu / el))
+            lines.append(f"| {rnd + 1} | {label} | {n} | {el / 60:.2f} | {60 * n / el:.1f} | {cpu / n:.2f} | "
+                         f"{cpu / el:.2f} | {l0:.1f}, {l1:.1f} |")
+            dbs.append(db)
+    import statistics
+    base = statistics.median(r for r, _ in rates[configs[0][0]])
+    lines += ["", "| cluster | median recordings/min | speed-up over 1 worker | median CPU cores used |",
+              "|---|---|---|---|"]
+    for label, _ in configs:
+        med = statistics.median(r for r, _ in rates[label])
+        lines.append(f"| {label} | {med:.1f} | {med / base:.2f} | {statistics.median(c for _, c in rates[label]):.2f} |")
     from agvcal_fleet import db as dbmod
     rows = []
     for d in dbs:
