@@ -115,7 +115,10 @@ std::vector<uint8_t> Encode(const Message& message) {
 // its decoders can also throw on corrupt lengths, e.g. of a string.
 template <typename Message>
 bool Decode(const void* data, int size, Message* message, std::string* why = nullptr) {
-  if (size < 0) return false;
+  if (size < 0) {
+    if (why) *why = "a negative size";
+    return false;
+  }
   const std::string bad =
       CheckEncodedLengths(Message::getTypeName(), static_cast<const uint8_t*>(data), static_cast<size_t>(size));
   if (!bad.empty()) {
