@@ -23,9 +23,10 @@ stands out, each effect fitted jointly with the calibration, tested against a
 false-alarm rate over the whole catalogue, and proven on held-out data
 (alternating time blocks the fit never sees). Prints a plain-words summary.
   --out REPORT.json   write the report (spec/cli.md), atomically
-  --report DIR        human report: summary.txt and SVG plots (residual over time
-                      before/after, each effect's signature and its held-out error per
-                      stretch, the route with the spans marked)
+  --report DIR        human report (docs/reports.md): index.html with the candidates and
+                      the calibration as tables, summary.txt and SVG plots (residual over
+                      time before/after, each effect's signature and its held-out error
+                      per stretch, the route with the spans marked, actuation close-ups)
   --sim SIM_LOG       also diagnose a simulator's recording of the same commands and
                       report where the two differ (REPORT.json key "sim_comparison")
   --write-sim FILE    a simulation config (truth = refitted calibration, effects found)
@@ -59,6 +60,7 @@ int Diagnose(int argc, char** argv) {
     throw calib::InputError("command line", "--drift-window", "expected a length in (0, --block-s]");
   if (!args.Has("--quiet")) options.progress = [](const std::string& line) { std::cerr << line << "\n"; };
 
+  if (args.Has("--report")) calib::PrepareReportDir(args.Get("--report", ""));  // a bad folder fails first
   const calib::DiagnoseReport report = calib::DiagnoseLog(robot, log_path, options);
   std::cout << calib::DiagnoseSummaryText(report);
 

@@ -3,8 +3,10 @@
 #include <cerrno>
 #include <cstdio>
 #include <cstring>
+#include <filesystem>
 #include <fstream>
 #include <sstream>
+#include <system_error>
 
 #include "calib/core/errors.h"
 
@@ -32,6 +34,30 @@ void AppendFileAtomically(const std::string& path, const std::string& text) {
     existing = buffer.str();
   }
   WriteFileAtomically(path, existing + text);
+}
+
+void PrepareReportDir(const std::string& dir) {
+  namespace fs = std::filesystem;
+  std::error_code ec;
+  if (fs::exists(dir, ec) && !fs::is_directory(dir, ec))
+    throw InputError(dir, "", "exists and is not a directory (the report is a folder)");
+  fs::create_directories(dir, ec);
+  if (ec) throw InputError(dir, "", "cannot create the report folder: " + ec.message());
+  for (const fs::directory_entry& e : fs::directory_iterator(dir, ec)) {
+    const std::string name = e.path().filename().string();
+    const bool ours = name == "index.html" || name == "summary.txt" || e.path().extension() == ".svg";
+    if (ours && e.is_regular_file()) fs::remove(e.path(), ec);
+    if (ec) throw InputError(dir, name, "cannot remove the previous report's file: " + ec.message());
+  }
+  if (ec) throw InputError(dir, "", "cannot read the report folder: " + ec.message());
+  // Writable? WriteFileAtomically would say so too, but only after the analysis.
+  const fs::path probe = fs::path(dir) / ".agvcal-write-test";
+  if (FILE* f = std::fopen(probe.c_str(), "w")) {
+    std::fclose(f);
+    fs::remove(probe, ec);
+  } else {
+    throw InputError(dir, "", "the report folder is not writable");
+  }
 }
 
 }  // namespace calib
