@@ -24,7 +24,7 @@ window.addEventListener('load', function () {
            height: document.documentElement.scrollHeight, images: document.images.length, broken: broken};
   var out = document.createElement('pre');
   out.id = 'agvcal-check';
-  out.textContent = 'AGVCAL-CHECK' + JSON.stringify(r) + 'AGVCAL-END';
+  out.textContent = 'AGVCAL-' + 'CHECK' + JSON.stringify(r) + 'AGVCAL-' + 'END';
   document.body.appendChild(out);
 });
 </script>
@@ -58,7 +58,7 @@ def check(browser, name, folder, profile):
         r = run(browser, [f"--window-size={WIDTH},800", "--dump-dom", "file://" + os.path.abspath(probe)], profile)
     finally:
         os.remove(probe)
-    m = re.search(r"AGVCAL-CHECK(.*?)AGVCAL-END", r.stdout, re.S)
+    m = re.search(r"AGVCAL-CHECK(\{.*?\})AGVCAL-END", r.stdout, re.S)
     if not m:
         return [f"{name}: Chromium gave no measurement (exit {r.returncode}): {r.stderr.strip()[-300:]}"]
     got = json.loads(m.group(1))

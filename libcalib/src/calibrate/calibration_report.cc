@@ -30,7 +30,8 @@ std::string Fixed(double v, int decimals) {
   return buf;
 }
 
-// The value in the unit a person reads it in: mm beside m, deg beside rad, ms beside s.
+// The value in the unit a person reads it in: mm beside m, deg beside rad, ms beside s (a
+// negative sigma: rounded to |sigma| without showing it, ValueWithSigma).
 std::string Readable(double value, double sigma, const std::string& unit) {
   if (unit == "m") return ValueWithSigma(value * 1e3, sigma * 1e3) + " mm";
   if (unit == "rad") return ValueWithSigma(value * 180 / M_PI, sigma * 180 / M_PI) + " deg";
@@ -64,7 +65,7 @@ std::vector<std::vector<std::string>> ParameterRows(const CalibrationResult& r) 
     const std::string unit = CalibratedValueUnit(name);
     const double change = e.value - e.nominal;
     rows.push_back({name, ValueWithSigma(e.value, e.std) + " " + unit, Readable(e.value, e.std, unit),
-                    ValueWithSigma(e.nominal, 0) + " " + unit, Readable(change, 0, unit),
+                    ValueWithSigma(e.nominal, 0) + " " + unit, Readable(change, -e.std, unit),
                     e.std > 0 ? Fixed(change / e.std, 1) : "held"});
   }
   return rows;
@@ -244,10 +245,10 @@ std::string RecalHeldoutPlot(const RecalRun& run, int64_t t0) {
       if (k < d.improvement->current.size()) b.x.push_back(t), b.y.push_back(d.improvement->current[k] * 1e3);
       if (k < d.improvement->candidate.size()) a.x.push_back(t), a.y.push_back(d.improvement->candidate[k] * 1e3);
     }
-    p.spans.push_back({(d.heldout.front().utime_start - t0) * 1e-6, (d.heldout.back().utime_end - t0) * 1e-6});
+    for (const Segment& seg : d.heldout) p.spans.push_back({(seg.utime_start - t0) * 1e-6, (seg.utime_end - t0) * 1e-6});
   }
   p.series = {b, a};
-  p.span_label = "a decision's held-out segments";
+  p.span_label = "held-out segment";
   p.span_color = SvgPlot::kHeldoutSpanColor;
   return plot.Render();
 }

@@ -30,6 +30,12 @@ std::string Fixed(double v, int decimals) {
   return buf;
 }
 
+std::string Significant(double v, int digits) {
+  char buf[48];
+  std::snprintf(buf, sizeof buf, "%.*g", digits, v);
+  return buf;
+}
+
 std::string ResidualTimePlot(const DiagnoseReport& r, const Clock& sec) {
   std::vector<std::pair<double, double>> spans;
   for (const FoundEffect& e : r.effects)
@@ -159,11 +165,11 @@ std::vector<std::size_t> CommandSteps(const DiagnoseReport::Trace& tr, std::size
 // Around the largest command steps, 1 s before to 2 s after: a lag of a tenth of a second
 // shows as the measured curve trailing the commanded step.
 std::string ActuationZoomPlot(const DiagnoseReport::Trace& tr, const std::vector<std::size_t>& steps, const Clock& sec) {
-  SvgPlot plot("Actuation close up: " + tr.name + " around the largest command steps: commanded (grey), measured "
+  SvgPlot plot("Close up of " + tr.name + " at the largest command changes: commanded (grey), measured "
                "(black), with the effects found (blue)", 900, 200);
   for (std::size_t s : steps) {
     const double ts = sec(tr.utime[s]);
-    SvgPlot::Panel& p = plot.AddPanel("step at " + Fixed(ts, 2) + " s (" + TraceUnit(tr) + ")", SvgPlot::kTimeAxis,
+    SvgPlot::Panel& p = plot.AddPanel("command change at " + Fixed(ts, 2) + " s (" + TraceUnit(tr) + ")", SvgPlot::kTimeAxis,
                                       TraceUnit(tr));
     SvgPlot::Series m{{}, {}, "#000000", "measured", false, {}, {}}, b{{}, {}, kBefore, "commanded", false, {}, {}},
         a{{}, {}, kAfter, "with effects", false, {}, {}};
@@ -184,8 +190,8 @@ std::string EffectParamUnit(const std::string& key) {
   if (key == "slip_per_accel") return "s²/m";
   if (key == "gain") return "s";
   if (key == "amplitude") return "(relative)";
-  if (key == "phase" || key == "width_rad") return "rad";
   if (key == "rate_rad_s") return "rad/s";
+  if (key == "phase" || (key.size() > 4 && key.compare(key.size() - 4, 4, "_rad") == 0)) return "rad";
   return "s";  // offset_s, scan_period_s, tau_s
 }
 
@@ -195,6 +201,7 @@ std::string CandidateUnit(const std::string& name) {
   if (name == "lateral_slip") return EffectParamUnit("gain");
   if (name == "wheel_eccentricity") return EffectParamUnit("amplitude");
   if (name == "steering_backlash") return EffectParamUnit("width_rad");
+  if (name == "travel_direction_offset") return EffectParamUnit("offset_rad");
   if (name == "steering_rate_limit") return EffectParamUnit("rate_rad_s");
   return "s";
 }
@@ -208,7 +215,7 @@ std::vector<std::vector<std::string>> CandidateRows(const DiagnoseReport& r) {
     if (reason.empty() && c.status == CandidateStatus::kNotSignificant) reason = "not beyond the false-alarm level";
     rows.push_back({c.name + (c.wheel.empty() ? "" : " (" + c.wheel + ")"), c.layer, CandidateStatusName(c.status),
                     ValueWithSigma(c.estimate.value, c.estimate.std) + " " + unit,
-                    std::isfinite(c.detectable) ? ValueWithSigma(c.detectable, 0) + " " + unit : "-",
+                    std::isfinite(c.detectable) && c.detectable > 0 ? Significant(c.detectable, 2) + " " + unit : "-",
                     PValueText(c.p_adjusted), reason});
   }
   return rows;

@@ -11,9 +11,9 @@ namespace {
 // figures (SVGs drawn 900 px wide) scaled down to the column.
 const char* kStyle =
     "body{font-family:sans-serif;max-width:940px;margin:0 auto;padding:0 12px;line-height:1.4;"
-    "overflow-wrap:anywhere;color:#222}"
+    "overflow-wrap:break-word;color:#222}"
     "h1{font-size:1.5em}h2{font-size:1.2em;margin-top:1.6em;border-bottom:1px solid #ddd}"
-    ".text{white-space:pre-wrap;font-family:monospace;font-size:13px;background:#f6f6f6;padding:8px;"
+    ".text{white-space:pre-wrap;overflow-wrap:anywhere;font-family:monospace;font-size:13px;background:#f6f6f6;padding:8px;"
     "border:1px solid #e4e4e4}"
     ".tablewrap{overflow-x:auto}"
     "table{border-collapse:collapse;width:100%;font-size:13px}"
@@ -71,13 +71,17 @@ std::string ReportPage::Render() const {
 std::string ValueWithSigma(double value, double sigma) {
   char buf[64];
   if (!std::isfinite(value)) return "n/a";
-  if (!(sigma > 0) || !std::isfinite(sigma)) {
+  const double s = std::abs(sigma);
+  if (!(s > 0) || !std::isfinite(s)) {
     std::snprintf(buf, sizeof buf, "%.6g", value);
     return buf;
   }
   // Decimals that show two significant digits of sigma.
-  const int decimals = std::clamp(1 - static_cast<int>(std::floor(std::log10(sigma))), 0, 12);
-  std::snprintf(buf, sizeof buf, "%.*f ± %.*f", decimals, value, decimals, sigma);
+  const int decimals = std::clamp(1 - static_cast<int>(std::floor(std::log10(s))), 0, 12);
+  if (sigma < 0)
+    std::snprintf(buf, sizeof buf, "%.*f", decimals, value);
+  else
+    std::snprintf(buf, sizeof buf, "%.*f ± %.*f", decimals, value, decimals, sigma);
   return buf;
 }
 

@@ -26,7 +26,8 @@ class ReportPage {
 };
 
 // "1.2346 ± 0.0012": the value rounded to two significant digits of its sigma (six
-// significant digits without a usable sigma).
+// significant digits with a sigma of 0 or not finite). A negative sigma: "1.2346", the value
+// rounded to |sigma| without showing it (a change, a difference).
 std::string ValueWithSigma(double value, double sigma);
 
 // A p-value as a person reads it: "0.032", "3.1e-05", "< 1e-12".

@@ -46,12 +46,14 @@ SvgPlot::Panel& SvgPlot::AddPanel(const std::string& title, const std::string& x
 }
 
 std::string SvgPlot::Render() const {
-  const int top = 40, left = 80, right = 170, bottom = 45;
+  const int top = 52, left = 80, right = 170, bottom = 45;
   const int height = top + int(panels_.size()) * (panel_height_ + bottom) + 10;
   std::ostringstream s;
   s << "<svg xmlns=\"http://www.w3.org/2000/svg\" width=\"" << width_ << "\" height=\"" << height
     << "\" font-family=\"sans-serif\" font-size=\"12\">\n<rect width=\"100%\" height=\"100%\" fill=\"white\"/>\n"
-    << "<text x=\"" << width_ / 2 << "\" y=\"22\" text-anchor=\"middle\" font-size=\"15\">" << Esc(title_) << "</text>\n";
+    << "<text x=\"" << width_ / 2 << "\" y=\"22\" text-anchor=\"middle\" font-size=\""
+    << std::clamp(static_cast<int>((width_ - 20) / (0.56 * std::max<std::size_t>(title_.size(), 1))), 9, 15) << "\">"
+    << Esc(title_) << "</text>\n";
   for (std::size_t p = 0; p < panels_.size(); ++p) {
     const Panel& P = panels_[p];
     const double y0 = top + p * (panel_height_ + bottom), w = width_ - left - right, h = panel_height_ - 20;
@@ -116,10 +118,12 @@ std::string SvgPlot::Render() const {
           << "\"/><text x=\"" << left + w + 26 << "\" y=\"" << ly << "\">" << Esc(se.label) << "</text>\n";
       }
     }
-    if (!P.spans.empty() && !P.span_label.empty())
+    if (!P.spans.empty() && !P.span_label.empty()) {
       s << "<rect x=\"" << left + w + 10 << "\" y=\"" << y0 + 5 + 16 * legend << "\" width=\"12\" height=\"10\" fill=\""
-        << P.span_color << "\"/><text x=\"" << left + w + 26 << "\" y=\"" << y0 + 14 + 16 * legend++ << "\">"
+        << P.span_color << "\"/><text x=\"" << left + w + 26 << "\" y=\"" << y0 + 14 + 16 * legend << "\">"
         << Esc(P.span_label) << "</text>\n";
+      ++legend;
+    }
     if (!P.color_bar_label.empty()) {  // a vertical bar, hi at the top
       const double bx = left + w + 10, by = y0 + 14 + 16 * legend, bh = std::max(40.0, h - 30 - 16 * legend);
       for (int k = 0; k < 20; ++k)
