@@ -19,7 +19,7 @@ rm -rf "$OUT"
 if scripts/make-reports.sh "$BUILD" "$OUT"; then pass "reports written"; else fail "scripts/make-reports.sh"; fi
 check() { if python3 tests/tools/check_report_dir.py "$@"; then pass "$1 well-formed"; else fail "$1"; fi; }
 check "$OUT/diagnose" residual_time.svg route.svg actuation_zoom_speed_drive.svg "text:Every candidate of the catalogue" \
-  "text:drive_lag" "text:baseline" "text:since the recording's first message" "text:held-out stretch"
+  "text:drive_lag" "text:baseline" "text:since the recording's first message" "text:s²/m"
 check "$OUT/solve" residual_time.svg residual_histogram.svg heldout_windows.svg route.svg "text:Observability" \
   "text:Condition number" "text:calibrated ± 1σ" "text: mm" "text:since the recording's first message"
 check "$OUT/ground" floor_points.svg floor_height_histogram.svg frames.svg "text:lidar3d.pitch" "text: deg"

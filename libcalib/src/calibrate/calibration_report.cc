@@ -24,12 +24,6 @@ bool EndsWith(const std::string& s, const std::string& tail) {
   return s.size() >= tail.size() && s.compare(s.size() - tail.size(), tail.size(), tail) == 0;
 }
 
-std::string Fixed(double v, int decimals) {
-  char buf[48];
-  std::snprintf(buf, sizeof buf, "%.*f", decimals, v);
-  return buf;
-}
-
 // The value in the unit a person reads it in: mm beside m, deg beside rad, ms beside s (a
 // negative sigma: rounded to |sigma| without showing it, ValueWithSigma).
 std::string Readable(double value, double sigma, const std::string& unit) {
@@ -66,7 +60,7 @@ std::vector<std::vector<std::string>> ParameterRows(const CalibrationResult& r) 
     const double change = e.value - e.nominal;
     rows.push_back({name, ValueWithSigma(e.value, e.std) + " " + unit, Readable(e.value, e.std, unit),
                     ValueWithSigma(e.nominal, 0) + " " + unit, Readable(change, -e.std, unit),
-                    e.std > 0 ? Fixed(change / e.std, 1) : "held"});
+                    e.std > 0 ? FixedDecimals(change / e.std, 1) : "held"});
   }
   return rows;
 }
@@ -77,7 +71,7 @@ std::vector<std::string> ParameterHeader(const std::string& before) {
 
 std::string ObservabilityText(const CalibrationResult& r) {
   std::ostringstream s;
-  s << "Condition number of the correlation-normalised Fisher information: " << Fixed(r.condition, 1)
+  s << "Condition number of the correlation-normalised Fisher information: " << FixedDecimals(r.condition, 1)
     << " (1: every value determined independently; large: values trade off against each other). "
     << "Weakly determined: ";
   if (r.weak.empty()) s << "none.";
@@ -148,7 +142,7 @@ std::string ResidualHistogramPlot(const std::vector<IntervalResidual>& iv, const
 }
 
 std::string HeldoutWindowsPlot(const HeldoutComparison& h, int64_t t0) {
-  SvgPlot plot("Held-out windows of " + Fixed(h.window_m, 2) +
+  SvgPlot plot("Held-out windows of " + SignificantDigits(h.window_m, 2) +
                " m path: odometry error at each window's end, nominal (grey) and calibrated (blue)");
   SvgPlot::Panel& p = plot.AddPanel("position error at the window's end (mm)", SvgPlot::kTimeAxis, "mm");
   SvgPlot::Series b{{}, {}, kNominal, "nominal", true, {}, {}}, a{{}, {}, kCalibrated, "calibrated", true, {}, {}};
@@ -188,9 +182,9 @@ std::string RoutePlot(const std::vector<IntervalResidual>& iv, const std::string
 
 std::vector<std::vector<std::string>> HeldoutRows(const HeldoutComparison& h) {
   auto row = [](const std::string& name, const OdometryError& e) {
-    return std::vector<std::string>{name, std::to_string(e.windows), Fixed(e.error_per_metre * 1e3, 2) + " mm/m",
-                                    Fixed(e.rms_translation_m * 1e3, 2) + " mm",
-                                    Fixed(e.rms_heading_rad * 1e3, 2) + " mrad"};
+    return std::vector<std::string>{name, std::to_string(e.windows), FixedDecimals(e.error_per_metre * 1e3, 2) + " mm/m",
+                                    FixedDecimals(e.rms_translation_m * 1e3, 2) + " mm",
+                                    FixedDecimals(e.rms_heading_rad * 1e3, 2) + " mrad"};
   };
   return {row("nominal (robot file)", h.nominal), row("calibrated", h.calibrated)};
 }
@@ -216,7 +210,7 @@ void AddCalibration(const CalibrationResult& r, int64_t t0, const std::string& b
   if (r.heldout) {
     page->Heading("Held-out windows");
     const HeldoutComparison& h = *r.heldout;
-    page->Paragraph("Odometry chained over windows of " + Fixed(h.window_m, 2) + " m of path on the " +
+    page->Paragraph("Odometry chained over windows of " + SignificantDigits(h.window_m, 2) + " m of path on the " +
                     std::to_string(h.intervals) + " held-out intervals, which the fit did not see. Calibrated better in " +
                     std::to_string(h.paired.second_better) + " of " + std::to_string(h.paired.windows - h.paired.ties) +
                     " windows (sign test p = " + PValueText(h.paired.sign_test_p) + ").");
@@ -256,15 +250,15 @@ std::string RecalHeldoutPlot(const RecalRun& run, int64_t t0) {
 std::vector<std::vector<std::string>> DecisionRows(const RecalRun& run, int64_t t0) {
   std::vector<std::vector<std::string>> rows;
   for (const RecalDecision& d : run.decisions) {
-    std::vector<std::string> row{std::to_string(d.number), Fixed((d.utime - t0) * 1e-6, 1) + " s",
+    std::vector<std::string> row{std::to_string(d.number), FixedDecimals((d.utime - t0) * 1e-6, 1) + " s",
                                  VerdictName(d.verdict), std::to_string(d.fit.size()) + " / " + std::to_string(d.heldout.size())};
     if (d.improvement)
-      row.push_back(Fixed(d.improvement->mean_current * 1e3, 2) + " → " + Fixed(d.improvement->mean_candidate * 1e3, 2) +
+      row.push_back(FixedDecimals(d.improvement->mean_current * 1e3, 2) + " → " + FixedDecimals(d.improvement->mean_candidate * 1e3, 2) +
                     " mm/m (p = " + PValueText(d.improvement->p) + ")");
     else
       row.push_back("-");
     row.push_back(d.consistency ? "p = " + PValueText(d.consistency->p) + (d.consistency->consistent ? "" : ", moved: " +
-                                  d.consistency->largest + " " + Fixed(d.consistency->largest_sigmas, 1) + " σ")
+                                  d.consistency->largest + " " + FixedDecimals(d.consistency->largest_sigmas, 1) + " σ")
                                 : "-");
     row.push_back(d.reason);
     rows.push_back(row);
@@ -302,14 +296,14 @@ std::string SolveReportSummary(const CalibrationResult& r, const std::string& lo
     << DriveTypeName(r.drive) << " drive, motion measured by " << MotionSourceName(r.source) << ": "
     << r.residual.intervals << " intervals fitted, " << r.residual.outliers << " outliers set aside";
   if (r.heldout) s << ", " << r.heldout->intervals << " held out";
-  s << ".\nResidual RMS of the fitted inliers: x " << Fixed(r.residual.rms_x * 1e3, 2) << " mm, y "
-    << Fixed(r.residual.rms_y * 1e3, 2) << " mm, yaw " << Fixed(r.residual.rms_yaw * 1e3, 3) << " mrad ("
-    << Fixed(r.residual.rms_yaw * 180 / M_PI, 4) << " deg).\n";
+  s << ".\nResidual RMS of the fitted inliers: x " << FixedDecimals(r.residual.rms_x * 1e3, 2) << " mm, y "
+    << FixedDecimals(r.residual.rms_y * 1e3, 2) << " mm, yaw " << FixedDecimals(r.residual.rms_yaw * 1e3, 3) << " mrad ("
+    << FixedDecimals(r.residual.rms_yaw * 180 / M_PI, 4) << " deg).\n";
   for (const auto& row : ParameterRows(r)) s << "  " << row[0] << " = " << row[1] << " (" << row[2] << ")\n";
   s << ObservabilityText(r) << "\n";
   if (r.heldout)
-    s << "Held-out odometry error per metre: nominal " << Fixed(r.heldout->nominal.error_per_metre * 1e3, 2)
-      << " mm/m, calibrated " << Fixed(r.heldout->calibrated.error_per_metre * 1e3, 2) << " mm/m (sign test p = "
+    s << "Held-out odometry error per metre: nominal " << FixedDecimals(r.heldout->nominal.error_per_metre * 1e3, 2)
+      << " mm/m, calibrated " << FixedDecimals(r.heldout->calibrated.error_per_metre * 1e3, 2) << " mm/m (sign test p = "
       << PValueText(r.heldout->paired.sign_test_p) << ").\n";
   return s.str();
 }

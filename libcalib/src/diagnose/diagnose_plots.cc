@@ -24,18 +24,6 @@ struct Clock {
   double operator()(int64_t utime) const { return (utime - t0) * 1e-6; }
 };
 
-std::string Fixed(double v, int decimals) {
-  char buf[48];
-  std::snprintf(buf, sizeof buf, "%.*f", decimals, v);
-  return buf;
-}
-
-std::string Significant(double v, int digits) {
-  char buf[48];
-  std::snprintf(buf, sizeof buf, "%.*g", digits, v);
-  return buf;
-}
-
 std::string ResidualTimePlot(const DiagnoseReport& r, const Clock& sec) {
   std::vector<std::pair<double, double>> spans;
   for (const FoundEffect& e : r.effects)
@@ -169,7 +157,7 @@ std::string ActuationZoomPlot(const DiagnoseReport::Trace& tr, const std::vector
                "(black), with the effects found (blue)", 900, 200);
   for (std::size_t s : steps) {
     const double ts = sec(tr.utime[s]);
-    SvgPlot::Panel& p = plot.AddPanel("command change at " + Fixed(ts, 2) + " s (" + TraceUnit(tr) + ")", SvgPlot::kTimeAxis,
+    SvgPlot::Panel& p = plot.AddPanel("command change at " + FixedDecimals(ts, 2) + " s (" + TraceUnit(tr) + ")", SvgPlot::kTimeAxis,
                                       TraceUnit(tr));
     SvgPlot::Series m{{}, {}, "#000000", "measured", false, {}, {}}, b{{}, {}, kBefore, "commanded", false, {}, {}},
         a{{}, {}, kAfter, "with effects", false, {}, {}};
@@ -215,7 +203,7 @@ std::vector<std::vector<std::string>> CandidateRows(const DiagnoseReport& r) {
     if (reason.empty() && c.status == CandidateStatus::kNotSignificant) reason = "not beyond the false-alarm level";
     rows.push_back({c.name + (c.wheel.empty() ? "" : " (" + c.wheel + ")"), c.layer, CandidateStatusName(c.status),
                     ValueWithSigma(c.estimate.value, c.estimate.std) + " " + unit,
-                    std::isfinite(c.detectable) && c.detectable > 0 ? Significant(c.detectable, 2) + " " + unit : "-",
+                    std::isfinite(c.detectable) && c.detectable > 0 ? SignificantDigits(c.detectable, 2) + " " + unit : "-",
                     PValueText(c.p_adjusted), reason});
   }
   return rows;
@@ -238,7 +226,7 @@ std::vector<std::vector<std::string>> EffectRows(const DiagnoseReport& r, const 
     std::string size, where;
     for (const auto& [k, v] : e.params) size += (size.empty() ? "" : ", ") + k + " = " + ValueWithSigma(v.value, v.std) + " " + EffectParamUnit(k);
     for (std::size_t i = 0; i < e.where.size() && i < 6; ++i)
-      where += (i ? ", " : "") + Fixed(sec(e.where[i].utime_start), 1) + "–" + Fixed(sec(e.where[i].utime_end), 1) + " s";
+      where += (i ? ", " : "") + FixedDecimals(sec(e.where[i].utime_start), 1) + "–" + FixedDecimals(sec(e.where[i].utime_end), 1) + " s";
     if (e.where.size() > 6) where += ", … (" + std::to_string(e.where.size()) + " spans)";
     rows.push_back({e.name + (e.wheel.empty() ? "" : " (" + e.wheel + ")"), size, PValueText(e.p_adjusted),
                     where.empty() ? "-" : where, e.regime});

@@ -13,12 +13,6 @@
 namespace calib {
 namespace {
 
-std::string Fixed(double v, int decimals) {
-  char buf[48];
-  std::snprintf(buf, sizeof buf, "%.*f", decimals, v);
-  return buf;
-}
-
 // Height of each sampled floor point above the floor of `pose` (m).
 std::vector<double> Heights(const std::vector<float>& xyz, const FloorPose& pose) {
   const Eigen::Vector3d n = FloorNormal(pose.pitch, pose.roll);
@@ -84,19 +78,19 @@ std::string FramesPlot(const GroundResult& r) {
 std::vector<std::string> MountRow(const std::string& name, double value, double sigma, double nominal, bool angle) {
   const double k = angle ? 180 / M_PI : 1e3;
   return {name, ValueWithSigma(value, sigma) + (angle ? " rad" : " m"),
-          ValueWithSigma(value * k, sigma * k) + (angle ? " deg" : " mm"), Fixed(nominal, 6) + (angle ? " rad" : " m"),
-          Fixed((value - nominal) * k, angle ? 3 : 1) + (angle ? " deg" : " mm")};
+          ValueWithSigma(value * k, sigma * k) + (angle ? " deg" : " mm"), FixedDecimals(nominal, 6) + (angle ? " rad" : " m"),
+          FixedDecimals((value - nominal) * k, angle ? 3 : 1) + (angle ? " deg" : " mm")};
 }
 
 std::vector<std::vector<std::string>> SectorRows(const GroundResult& r) {
   std::vector<std::vector<std::string>> rows;
   for (const SectorEstimate& s : r.sectors) {
     const MountEstimate& e = s.estimate;
-    rows.push_back({std::to_string(s.index), Fixed(s.angle_min * 180 / M_PI, 1) + " .. " + Fixed(s.angle_max * 180 / M_PI, 1),
+    rows.push_back({std::to_string(s.index), FixedDecimals(s.angle_min * 180 / M_PI, 1) + " .. " + FixedDecimals(s.angle_max * 180 / M_PI, 1),
                     std::to_string(e.frames), ValueWithSigma(e.value.z * 1e3, e.std.z * 1e3),
                     ValueWithSigma(e.value.pitch * 180 / M_PI, e.std.pitch * 180 / M_PI),
-                    ValueWithSigma(e.value.roll * 180 / M_PI, e.std.roll * 180 / M_PI), Fixed(100 * e.inliers, 1),
-                    Fixed(1e3 * e.rms_m, 1)});
+                    ValueWithSigma(e.value.roll * 180 / M_PI, e.std.roll * 180 / M_PI), FixedDecimals(100 * e.inliers, 1),
+                    FixedDecimals(1e3 * e.rms_m, 1)});
   }
   return rows;
 }
@@ -118,7 +112,7 @@ void WriteGroundReportDir(const RobotDescription& robot, const GroundResult& r, 
               MountRow("lidar3d.pitch", e.value.pitch, e.std.pitch, nominal.pitch, true),
               MountRow("lidar3d.roll", e.value.roll, e.std.roll, nominal.roll, true)});
   page.Paragraph(std::to_string(e.frames) + " frames combined (" + std::to_string(e.frames_tilted) +
-                 " left out as tilted against the others); frames scatter " + Fixed(e.birge_ratio, 2) +
+                 " left out as tilted against the others); frames scatter " + FixedDecimals(e.birge_ratio, 2) +
                  " times their own sigmas" + (e.birge_ratio > 1 ? " (sigmas inflated by that)" : "") + ".");
   if (!r.sectors.empty()) {
     page.Heading("Per sector of the lidar's rotation");

@@ -85,6 +85,18 @@ std::string ValueWithSigma(double value, double sigma) {
   return buf;
 }
 
+std::string FixedDecimals(double value, int decimals) {
+  char buf[64];
+  std::snprintf(buf, sizeof buf, "%.*f", decimals, value);
+  return buf;
+}
+
+std::string SignificantDigits(double value, int digits) {
+  char buf[64];
+  std::snprintf(buf, sizeof buf, "%.*g", digits, value);
+  return buf;
+}
+
 std::string PValueText(double p) {
   char buf[32];
   if (!std::isfinite(p)) return "n/a";

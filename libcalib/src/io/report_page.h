@@ -30,6 +30,10 @@ class ReportPage {
 // rounded to |sigma| without showing it (a change, a difference).
 std::string ValueWithSigma(double value, double sigma);
 
+// "12.35" (FixedDecimals(12.345, 2)), "0.0036" (SignificantDigits(0.003556, 2)).
+std::string FixedDecimals(double value, int decimals);
+std::string SignificantDigits(double value, int digits);
+
 // A p-value as a person reads it: "0.032", "3.1e-05", "< 1e-12".
 std::string PValueText(double p);
 
