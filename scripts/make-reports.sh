@@ -2,7 +2,7 @@
 # Writes the human report (--report DIR, docs/reports.md) of each command into OUT:
 #   OUT/diagnose  the simulated forklift with a 0.1 s drive lag (config/sims/forklift.yaml + effect)
 #   OUT/solve     the forklift sample logs/forklift_demo.log, the last 30 % held out
-#   OUT/ground    the simulated forklift's 3D lidar (16 rings, 10 Hz) on the demo route
+#   OUT/ground    the simulated forklift's 3D lidar on the demo route (config/sims/forklift_lidar3d.yaml)
 #   OUT/recal     the forklift's simulated work route (config/sims/forklift_route.yaml)
 # The recordings are made in OUT/work. Used by the report tests (tests/reports/reports.sh) and
 # scripts/report-screenshots.sh.
@@ -28,16 +28,7 @@ say "solve: logs/forklift_demo.log, 30 % held out"
   --report "$OUT/solve" > "$W/solve.txt"
 
 say "ground: simulated 3D lidar"
-cat > "$W/clouds.yaml" <<SIM
-robot: $SRC/config/robots/forklift.yaml
-truth:
-  lidar3d: {z: 1.912, pitch: 0.035, roll: -0.012}
-sensors:
-  lidar2d: {rate: 0}
-  imu: {rate: 0}
-  lidar3d: {rate: 10, rings: 16, points_per_ring: 360, body: {min: [-0.6, -0.6, 0.0], max: [1.9, 0.6, 1.6]}}
-SIM
-"$AGVCAL" simulate "$W/clouds.yaml" "$W/clouds.log" --trajectory demo --quiet
+"$AGVCAL" simulate config/sims/forklift_lidar3d.yaml "$W/clouds.log" --trajectory demo --quiet
 "$AGVCAL" ground config/robots/forklift.yaml "$W/clouds.log" --quiet --report "$OUT/ground"
 
 say "recal: the forklift's work route"

@@ -5,19 +5,10 @@
 #include <cstdio>
 #include <sstream>
 
+#include "io/report_page.h"
+
 namespace calib {
 namespace {
-
-std::string Esc(const std::string& s) {
-  std::string out;
-  for (char c : s) {
-    if (c == '<') out += "&lt;";
-    else if (c == '>') out += "&gt;";
-    else if (c == '&') out += "&amp;";
-    else out += c;
-  }
-  return out;
-}
 
 std::string Num(double v) {
   char buf[32];
@@ -53,7 +44,7 @@ std::string SvgPlot::Render() const {
     << "\" font-family=\"sans-serif\" font-size=\"12\">\n<rect width=\"100%\" height=\"100%\" fill=\"white\"/>\n"
     << "<text x=\"" << width_ / 2 << "\" y=\"22\" text-anchor=\"middle\" font-size=\""
     << std::clamp(static_cast<int>((width_ - 20) / (0.56 * std::max<std::size_t>(title_.size(), 1))), 9, 15) << "\">"
-    << Esc(title_) << "</text>\n";
+    << HtmlEscape(title_) << "</text>\n";
   for (std::size_t p = 0; p < panels_.size(); ++p) {
     const Panel& P = panels_[p];
     const double y0 = top + p * (panel_height_ + bottom), w = width_ - left - right, h = panel_height_ - 20;
@@ -78,7 +69,7 @@ std::string SvgPlot::Render() const {
     }
     auto X = [&](double x) { return left + (x - xmin) / (xmax - xmin) * w; };
     auto Y = [&](double y) { return y0 + h - (y - ymin) / (ymax - ymin) * h; };
-    s << "<text x=\"" << left << "\" y=\"" << y0 - 6 << "\" font-size=\"13\">" << Esc(P.title) << "</text>\n";
+    s << "<text x=\"" << left << "\" y=\"" << y0 - 6 << "\" font-size=\"13\">" << HtmlEscape(P.title) << "</text>\n";
     for (const auto& [a, b] : P.spans) {
       const double xa = X(std::max(a, xmin)), xb = X(std::min(b, xmax));
       if (xb > xa) s << "<rect x=\"" << xa << "\" y=\"" << y0 << "\" width=\"" << std::max(xb - xa, 1.0) << "\" height=\"" << h
@@ -92,9 +83,9 @@ std::string SvgPlot::Render() const {
     for (double t : Ticks(ymin, ymax))
       s << "<line x1=\"" << left - 4 << "\" x2=\"" << left + w << "\" y1=\"" << Y(t) << "\" y2=\"" << Y(t)
         << "\" stroke=\"#ddd\"/><text x=\"" << left - 6 << "\" y=\"" << Y(t) + 4 << "\" text-anchor=\"end\">" << Num(t) << "</text>\n";
-    s << "<text x=\"" << left + w / 2 << "\" y=\"" << y0 + h + 32 << "\" text-anchor=\"middle\">" << Esc(P.x_label) << "</text>\n";
+    s << "<text x=\"" << left + w / 2 << "\" y=\"" << y0 + h + 32 << "\" text-anchor=\"middle\">" << HtmlEscape(P.x_label) << "</text>\n";
     s << "<text transform=\"translate(" << 16 << "," << y0 + h / 2 << ") rotate(-90)\" text-anchor=\"middle\">"
-      << Esc(P.y_label) << "</text>\n";
+      << HtmlEscape(P.y_label) << "</text>\n";
     int legend = 0;
     for (const Series& se : P.series) {
       if (se.points) {
@@ -115,13 +106,13 @@ std::string SvgPlot::Render() const {
       if (!se.label.empty()) {
         const double ly = y0 + 14 + 16 * legend++;
         s << "<rect x=\"" << left + w + 10 << "\" y=\"" << ly - 9 << "\" width=\"12\" height=\"10\" fill=\"" << se.color
-          << "\"/><text x=\"" << left + w + 26 << "\" y=\"" << ly << "\">" << Esc(se.label) << "</text>\n";
+          << "\"/><text x=\"" << left + w + 26 << "\" y=\"" << ly << "\">" << HtmlEscape(se.label) << "</text>\n";
       }
     }
     if (!P.spans.empty() && !P.span_label.empty()) {
       s << "<rect x=\"" << left + w + 10 << "\" y=\"" << y0 + 5 + 16 * legend << "\" width=\"12\" height=\"10\" fill=\""
         << P.span_color << "\"/><text x=\"" << left + w + 26 << "\" y=\"" << y0 + 14 + 16 * legend << "\">"
-        << Esc(P.span_label) << "</text>\n";
+        << HtmlEscape(P.span_label) << "</text>\n";
       ++legend;
     }
     if (!P.color_bar_label.empty()) {  // a vertical bar, hi at the top
@@ -130,7 +121,7 @@ std::string SvgPlot::Render() const {
         s << "<rect x=\"" << bx << "\" y=\"" << by + bh * k / 20 << "\" width=\"14\" height=\"" << bh / 20 + 0.5
           << "\" fill=\"" << ColorRamp(P.color_bar_hi - (k + 0.5) / 20 * (P.color_bar_hi - P.color_bar_lo),
                                         P.color_bar_lo, P.color_bar_hi) << "\"/>";
-      s << "<text x=\"" << bx << "\" y=\"" << by - 3 << "\">" << Esc(P.color_bar_label) << "</text>"
+      s << "<text x=\"" << bx << "\" y=\"" << by - 3 << "\">" << HtmlEscape(P.color_bar_label) << "</text>"
         << "<text x=\"" << bx + 18 << "\" y=\"" << by + 10 << "\">" << Num(P.color_bar_hi) << "</text>"
         << "<text x=\"" << bx + 18 << "\" y=\"" << by + bh << "\">" << Num(P.color_bar_lo) << "</text>\n";
     }
