@@ -4,8 +4,8 @@
 # folder well-formed (tests/tools/check_report_dir.py: XML of every SVG, the page shows every
 # plot, tables with data, no <pre>), the plots each command promises, the candidates table and
 # the actuation close-up of the diagnosis, times since the recording's first message in
-# REPORT-adjacent text; a report folder that is a file exits 2 before any work; a reused folder
-# loses the previous run's plots.
+# the pages; a report folder that is a file exits 2 before any work; a reused folder loses the
+# previous report's plots, a folder holding someone else's index.html is refused (exit 2).
 # Usage: reports.sh BUILD SRC
 set -u
 BUILD=$(cd "${1:?build dir}" && pwd)
@@ -35,11 +35,16 @@ if grep -q "recording's first message" "$OUT"/diagnose/residual_time.svg; then p
 status=$?
 if [ $status -eq 2 ] && grep -q "reports-file" "$BUILD/reports-err"; then pass "report at a file: exit 2"; else fail "report at a file: exit $status: $(cat "$BUILD/reports-err")"; fi
 rm -f "$BUILD/reports-file" "$BUILD/reports-err"
-# A reused folder: the previous run's plots are gone.
-mkdir -p "$BUILD/reports-reused" && echo '<svg/>' > "$BUILD/reports-reused/signature_9_old.svg"
+# A reused folder: the previous report's plots are gone; someone else's page is left alone (exit 2).
+rm -rf "$BUILD/reports-reused" && cp -r "$OUT/solve" "$BUILD/reports-reused"
 "$BUILD/agvcal" ground config/robots/forklift.yaml "$OUT/work/clouds.log" --quiet --report "$BUILD/reports-reused"
-if [ ! -e "$BUILD/reports-reused/signature_9_old.svg" ] && [ -s "$BUILD/reports-reused/index.html" ]; then
-  pass "reused folder cleared of the old plots"; else fail "reused folder keeps the old plots"; fi
-rm -rf "$BUILD/reports-reused"
+if [ ! -e "$BUILD/reports-reused/residual_time.svg" ] && [ -s "$BUILD/reports-reused/floor_points.svg" ]; then
+  pass "reused folder cleared of the old plots"; else fail "reused folder keeps the old plots: $(ls "$BUILD/reports-reused")"; fi
+echo '<html><title>my page</title></html>' > "$BUILD/reports-reused/index.html"
+"$BUILD/agvcal" ground config/robots/forklift.yaml "$OUT/work/clouds.log" --quiet --report "$BUILD/reports-reused" 2> "$BUILD/reports-err"
+status=$?
+if [ $status -eq 2 ] && grep -q "my page" "$BUILD/reports-reused/index.html" && [ -s "$BUILD/reports-reused/floor_points.svg" ]; then
+  pass "a folder with another page: exit 2, nothing removed"; else fail "a folder with another page: exit $status: $(cat "$BUILD/reports-err")"; fi
+rm -rf "$BUILD/reports-reused" "$BUILD/reports-err"
 echo "failures: $fails"
 [ $fails -eq 0 ]

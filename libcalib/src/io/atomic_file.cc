@@ -7,6 +7,7 @@
 #include <fstream>
 #include <sstream>
 #include <system_error>
+#include <vector>
 
 #include "calib/core/errors.h"
 
@@ -43,13 +44,27 @@ void PrepareReportDir(const std::string& dir) {
     throw InputError(dir, "", "exists and is not a directory (the report is a folder)");
   fs::create_directories(dir, ec);
   if (ec) throw InputError(dir, "", "cannot create the report folder: " + ec.message());
-  for (const fs::directory_entry& e : fs::directory_iterator(dir, ec)) {
-    const std::string name = e.path().filename().string();
-    const bool ours = name == "index.html" || name == "summary.txt" || e.path().extension() == ".svg";
-    if (ours && e.is_regular_file()) fs::remove(e.path(), ec);
-    if (ec) throw InputError(dir, name, "cannot remove the previous report's file: " + ec.message());
+  // A previous report (an index.html titled "agvcal ...") is cleared; a folder with another
+  // index.html is someone else's page and is left alone.
+  const fs::path index = fs::path(dir) / "index.html";
+  if (fs::exists(index, ec)) {
+    std::ifstream in(index);
+    std::string head(4096, '\0');
+    in.read(&head[0], static_cast<std::streamsize>(head.size()));
+    if (head.find("<title>agvcal") == std::string::npos)
+      throw InputError(dir, "index.html", "holds a page that is not an agvcal report; choose another folder");
+    std::vector<fs::path> ours;
+    for (const fs::directory_entry& e : fs::directory_iterator(dir, ec)) {
+      const std::string name = e.path().filename().string();
+      if (e.is_regular_file() && (name == "index.html" || name == "summary.txt" || e.path().extension() == ".svg"))
+        ours.push_back(e.path());
+    }
+    if (ec) throw InputError(dir, "", "cannot read the report folder: " + ec.message());
+    for (const fs::path& p : ours) {
+      fs::remove(p, ec);
+      if (ec) throw InputError(dir, p.filename().string(), "cannot remove the previous report's file: " + ec.message());
+    }
   }
-  if (ec) throw InputError(dir, "", "cannot read the report folder: " + ec.message());
   // Writable? WriteFileAtomically would say so too, but only after the analysis.
   const fs::path probe = fs::path(dir) / ".agvcal-write-test";
   if (FILE* f = std::fopen(probe.c_str(), "w")) {

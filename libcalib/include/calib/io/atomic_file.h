@@ -13,9 +13,11 @@ void WriteFileAtomically(const std::string& path, const std::string& text);
 // file with all of `text` or none of it (for logs of a few hundred lines; the file is rewritten).
 void AppendFileAtomically(const std::string& path, const std::string& text);
 
-// Makes DIR ready for a report: created when missing, and the files a previous report wrote
-// there (index.html, summary.txt, *.svg) removed, so that none of them is taken for this run's.
-// Throws InputError naming DIR when it is a file or cannot be created or cleared.
+// Makes DIR ready for a report: created when missing; when it holds a previous agvcal report
+// (an index.html titled "agvcal ..."), that report's files (index.html, summary.txt, *.svg) are
+// removed, so that none of them is taken for this run's. Throws InputError naming DIR when it
+// is a file, holds an index.html that is not an agvcal report, or cannot be created, cleared or
+// written.
 void PrepareReportDir(const std::string& dir);
 
 }  // namespace calib
