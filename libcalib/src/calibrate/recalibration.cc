@@ -634,7 +634,7 @@ void RecordDecision(const RecalDecision& d, const std::string& robot_out,
   if (d.verdict == Verdict::kAccepted && !robot_out.empty()) {
     std::string source = "recalibration decision " + std::to_string(d.number) + ", segments";
     for (const Segment& s : d.fit) source += " " + std::to_string(s.index);
-    WriteFileAtomically(robot_out, CalibratedRobotYaml(d.in_use.robot, *d.fit_result, source));
+    WriteFileAtomically(robot_out, CalibratedRobotYaml(d.in_use.robot, *d.fit_result, source, "recal"));
   }
   if (!decisions_path.empty()) AppendFileAtomically(decisions_path, DecisionJson(d) + "\n");
 }
