@@ -43,6 +43,8 @@ int Ground(int argc, char** argv) {
   const calib::RobotDescription robot = calib::LoadRobotFile(args.positional[0]);
   const calib::GroundOptions options =
       args.Has("--config") ? calib::LoadGroundOptions(args.Get("--config", "")) : calib::GroundOptions{};
+  for (const char* option : {"--out", "--write-robot"})  // checked before the work (exit 2 at once)
+    if (args.Has(option)) calib::CheckWritableFile(args.Get(option, ""), option);
   calib::GroundInput input;
   const calib::GroundResult result = calib::CalibrateGroundFile(
       robot, options, args.positional[1], !args.Has("--no-grid"), &input);

@@ -93,6 +93,8 @@ int Solve(int argc, char** argv) {
   if (args.Has("--distance")) options.imu.distance_m = positive("--distance");
   if (args.Has("--distance-std")) options.imu.distance_std_m = positive("--distance-std");
   if (args.Has("--turn-angle")) options.imu.turn_angle_rad = positive("--turn-angle") * M_PI / 180.0;
+  for (const char* option : {"--out", "--write-robot"})  // checked before the work (exit 2 at once)
+    if (args.Has(option)) calib::CheckWritableFile(args.Get(option, ""), option);
   if (!args.Has("--quiet")) options.progress = [](const std::string& line) { std::cerr << line << "\n"; };
 
   const calib::CalibrationResult result = calib::SolveLog(robot, log_path, options);

@@ -23,7 +23,7 @@ std::string HtmlEscape(const std::string& s) {
 }  // namespace
 
 void WriteDiagnoseReportDir(const DiagnoseReport& r, const std::string& dir) {
-  std::filesystem::create_directories(dir);
+  PrepareReportDir(dir);  // created, checked, the last report's figures removed
   std::vector<std::string> files;
   const int64_t t0 = r.intervals.empty() ? 0 : r.intervals.front().utime_start;
   auto sec = [&](int64_t u) { return (u - t0) * 1e-6; };

@@ -3,6 +3,7 @@
 #include <cerrno>
 #include <cstdio>
 #include <cstring>
+#include <filesystem>
 #include <fstream>
 #include <sstream>
 
@@ -32,6 +33,47 @@ void AppendFileAtomically(const std::string& path, const std::string& text) {
     existing = buffer.str();
   }
   WriteFileAtomically(path, existing + text);
+}
+
+namespace {
+
+// Creates and removes a probe file in `dir`; InputError naming `shown` if that fails.
+void ProbeWritable(const std::string& dir, const std::string& shown, const std::string& option) {
+  const std::string probe = (std::filesystem::path(dir) / ".agvcal-write-check").string();
+  std::FILE* file = std::fopen(probe.c_str(), "wb");
+  if (!file) throw InputError(shown, option, std::string("cannot write there: ") + std::strerror(errno));
+  std::fclose(file);
+  std::remove(probe.c_str());
+}
+
+}  // namespace
+
+void CheckWritableFile(const std::string& path, const std::string& option) {
+  namespace fs = std::filesystem;
+  std::error_code ec;
+  if (fs::is_directory(path, ec))
+    throw InputError(path, option, "is a folder; " + option + " takes a file name");
+  const fs::path parent = fs::path(path).parent_path().empty() ? fs::path(".") : fs::path(path).parent_path();
+  if (!fs::is_directory(parent, ec))
+    throw InputError(path, option, "its folder " + parent.string() + " does not exist");
+  ProbeWritable(parent.string(), path, option);
+}
+
+void PrepareReportDir(const std::string& dir, const std::string& option) {
+  namespace fs = std::filesystem;
+  std::error_code ec;
+  if (fs::exists(dir, ec) && !fs::is_directory(dir, ec))
+    throw InputError(dir, option, "exists and is not a folder; " + option + " takes a folder (created if missing)");
+  fs::create_directories(dir, ec);
+  if (ec) throw InputError(dir, option, "cannot create the folder: " + ec.message());
+  ProbeWritable(dir, dir, option);
+  for (const fs::directory_entry& entry : fs::directory_iterator(dir, ec)) {
+    const std::string name = entry.path().filename().string();
+    const std::string ext = entry.path().extension().string();
+    if (entry.is_regular_file(ec) &&
+        (ext == ".svg" || ext == ".png" || name == "index.html" || name == "summary.txt"))
+      fs::remove(entry.path(), ec);
+  }
 }
 
 }  // namespace calib

@@ -13,4 +13,16 @@ void WriteFileAtomically(const std::string& path, const std::string& text);
 // file with all of `text` or none of it (for logs of a few hundred lines; the file is rewritten).
 void AppendFileAtomically(const std::string& path, const std::string& text);
 
+// Checks before the work starts that a result file can be written at `path` (`option` names
+// the command-line option in the message): not a folder, its folder exists and takes files.
+// Throws InputError naming the path (exit 2) instead of failing after the analysis.
+void CheckWritableFile(const std::string& path, const std::string& option);
+
+// Makes `dir` ready for a human report (--report): creates it if missing, checks it is a
+// folder that takes files, and removes the files an earlier report left there (*.svg,
+// *.png, index.html, summary.txt: the files reports own), so that a reused folder never
+// shows the last run's figures. Throws InputError naming the path (exit 2). Call it before
+// the analysis.
+void PrepareReportDir(const std::string& dir, const std::string& option = "--report");
+
 }  // namespace calib
