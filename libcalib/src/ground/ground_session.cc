@@ -223,13 +223,13 @@ std::string GroundResultText(const GroundResult& result, const GroundInput& inpu
     out << "  (frames scatter " << Format("%.2f", e.birge_ratio)
         << " x their own sigmas; sigmas inflated by that)\n";
   if (!result.sectors.empty()) {
-    out << "per sector: index   from deg    to deg  mean deg  frames       z m   pitch deg    roll deg\n";
+    out << "per sector: index   from deg    to deg  mean deg  frames       z m  pitch rad (deg)       roll rad (deg)\n";
     for (const SectorEstimate& s : result.sectors)
       out << "            " << Format("%5.0f", s.index) << Format("%11.2f", s.angle_min / kDeg)
           << Format("%10.2f", s.angle_max / kDeg) << Format("%10.2f", s.angle_mean / kDeg)
           << Format("%8.0f", s.estimate.frames) << Format("%10.5f", s.estimate.value.z)
-          << Format("%12.5f", s.estimate.value.pitch / kDeg) << Format("%12.5f", s.estimate.value.roll / kDeg)
-          << "\n";
+          << Format("%10.6f", s.estimate.value.pitch) << Format(" (%7.4f)", s.estimate.value.pitch / kDeg)
+          << Format("%11.6f", s.estimate.value.roll) << Format(" (%7.4f)", s.estimate.value.roll / kDeg) << "\n";
   }
   return out.str();
 }
