@@ -6,6 +6,7 @@
 #include <algorithm>
 #include <cmath>
 #include <cstdlib>
+#include <filesystem>
 #include <fstream>
 #include <sstream>
 #include <string>
@@ -115,6 +116,36 @@ TEST(RobotFileWriteTest, AddsMissingKeysInTheFilesStyle) {
   const RobotDescription robot = ParseRobot(out, "d.yaml");
   EXPECT_EQ(robot.imu->gyro_noise, 0.000123);
   EXPECT_EQ(robot.lidar2d->x, 0.2512);
+}
+
+// Every robot file of the project takes every calibrated value back in place and reads back.
+TEST(RobotFileWriteTest, EveryBundledRobotFileRoundTrips) {
+  int files = 0;
+  for (const std::string dir : {"config/robots", "config/robots/datasets"}) {
+    for (const auto& entry : std::filesystem::directory_iterator(std::string(AGVCAL_SOURCE_DIR) + "/" + dir)) {
+      if (entry.path().extension() != ".yaml") continue;
+      ++files;
+      const std::string path = entry.path().string();
+      const RobotDescription robot = LoadRobotFile(path);
+      std::vector<RobotFileValue> values;
+      for (const auto& [name, v] : robot.params) values.push_back({"params." + name, v * 1.01 + 0.001234567, 0.00031});
+      if (robot.lidar2d) values.push_back({"lidar2d.yaw", robot.lidar2d->yaw + 0.0123456, 0.00021});
+      if (robot.pose) values.push_back({"pose.x", robot.pose->x + 0.0123456, 0.0021});
+      if (robot.lidar3d) values.push_back({"lidar3d.pitch", robot.lidar3d->pitch + 0.0123456, 0.000012});
+      const std::string out = WriteCalibratedRobotFile(path, values, "solve", "x.log");
+      const RobotDescription back = ParseRobot(out, path + " (written)");
+      for (const auto& [name, v] : robot.params)
+        EXPECT_NEAR(back.params.at(name), v * 1.01 + 0.001234567, 0.000005) << path << " " << name << "\n" << out;
+      if (robot.lidar2d) EXPECT_NEAR(back.lidar2d->yaw, robot.lidar2d->yaw + 0.0123456, 0.000005) << path;
+      if (robot.pose) EXPECT_NEAR(back.pose->x, robot.pose->x + 0.0123456, 0.00005) << path;
+      if (robot.lidar3d) EXPECT_NEAR(back.lidar3d->pitch, robot.lidar3d->pitch + 0.0123456, 0.0000005) << path;
+      for (const std::string& c : CommentsOf(ReadSource(dir + "/" + entry.path().filename().string()))) {
+        const std::vector<std::string> after = CommentsOf(out);
+        EXPECT_NE(std::find(after.begin(), after.end(), c), after.end()) << path << ": comment lost: " << c;
+      }
+    }
+  }
+  EXPECT_GE(files, 8);
 }
 
 TEST(UnitsTest, PValuesNeverZero) {
