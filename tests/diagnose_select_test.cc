@@ -150,6 +150,12 @@ TEST(DiagnoseSelect, UndetectableSingleIsNotIdentifiable) {
   EXPECT_EQ(v.outcomes[0].status, CandidateStatus::kNotIdentifiable);
   EXPECT_EQ(v.outcomes[0].note.rfind("this recording could only detect it above ", 0), 0u);
   EXPECT_NE(v.outcomes[0].note.find("; drive fast turns"), std::string::npos);
+  // The size in the unit of the effect's key (lateral_slip.gain: s), three digits.
+  EXPECT_NE(v.outcomes[0].note.find("above 0.1"), std::string::npos) << v.outcomes[0].note;
+  EXPECT_NE(v.outcomes[0].note.find(" s; drive"), std::string::npos) << v.outcomes[0].note;
+  SingleFit slip = Single("longitudinal_slip", 0.3, 1, true);
+  slip.estimate.std = 0.5;
+  EXPECT_NE(JudgeSingles({slip}, Levels(1)).outcomes[0].note.find(" s²/m; drive"), std::string::npos);
 }
 
 TEST(DiagnoseSelect, PairMembersDetectableWithTheirLookAlike) {

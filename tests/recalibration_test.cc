@@ -23,6 +23,7 @@
 
 #include "calib/calibrate/recalibration.h"
 #include "calib/core/errors.h"
+#include "calib/core/units.h"
 #include "calib/io/atomic_file.h"
 #include "calib/io/messages.h"
 #include "calib/io/recording.h"
@@ -504,7 +505,11 @@ TEST_F(RouteDecisionTest, DecisionLogAndRobotFile) {
   EXPECT_EQ(decisions[1]["verdict"], "rejected");
   EXPECT_EQ(decisions[1]["segments"]["heldout"].size(), 4u);
   EXPECT_EQ(decisions[1]["reason"], second.reason);
-  EXPECT_DOUBLE_EQ(decisions[0]["candidate"]["drive_radius"]["value"].get<double>(), first.after.value[0]);
+  // In use from now on: the candidate as the robot file holds it, rounded to its sigma.
+  const double candidate = decisions[0]["candidate"]["drive_radius"]["value"].get<double>();
+  const double sigma = decisions[0]["candidate"]["drive_radius"]["std"].get<double>();
+  EXPECT_NEAR(first.after.value[0], candidate, 0.5 * std::pow(10.0, -DecimalsForSigma(sigma)) * (1 + 1e-9));
+  EXPECT_NE(first.after.value[0], candidate) << "rounded, as the file holds it";
   std::remove(robot_out.c_str());
   std::remove(log.c_str());
 }

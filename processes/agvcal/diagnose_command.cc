@@ -23,7 +23,8 @@ stands out, each effect fitted jointly with the calibration, tested against a
 false-alarm rate over the whole catalogue, and proven on held-out data
 (alternating time blocks the fit never sees). Prints a plain-words summary.
   --out REPORT.json   write the report (spec/cli.md), atomically
-  --report DIR        human report (docs/reports.md): index.html with the candidates and
+  --report DIR        human report (docs/reports.md; a folder, created if missing, an earlier
+                      agvcal report there cleared): index.html with the candidates and
                       the calibration as tables, summary.txt and SVG plots (residual over
                       time before/after, each effect's signature and its held-out error
                       per stretch, the route with the spans marked, actuation close-ups)
@@ -58,9 +59,12 @@ int Diagnose(int argc, char** argv) {
   options.drift_window_s = args.GetDouble("--drift-window", std::min(options.drift_window_s, options.block_s));
   if (!(options.drift_window_s > 0 && options.drift_window_s <= options.block_s))
     throw calib::InputError("command line", "--drift-window", "expected a length in (0, --block-s]");
+  // Where the results go is checked before the analysis (exit 2 at once, naming the path).
+  for (const char* option : {"--out", "--write-sim"})
+    if (args.Has(option)) calib::CheckWritableFile(args.Get(option, ""), option);
+  if (args.Has("--report")) calib::PrepareReportDir(args.Get("--report", ""));
   if (!args.Has("--quiet")) options.progress = [](const std::string& line) { std::cerr << line << "\n"; };
 
-  if (args.Has("--report")) calib::PrepareReportDir(args.Get("--report", ""));  // a bad folder fails first
   const calib::DiagnoseReport report = calib::DiagnoseLog(robot, log_path, options);
   std::cout << calib::DiagnoseSummaryText(report);
 

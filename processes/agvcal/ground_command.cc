@@ -12,8 +12,8 @@ namespace agvcal_cli {
 
 namespace {
 const char* kUsage =
-    R"(usage: agvcal ground ROBOT.yaml LOG|CLOUD_FILE [--out RESULT.json] [--config GROUND.yaml]
-                     [--no-grid] [--report DIR] [--quiet]
+    R"(usage: agvcal ground ROBOT.yaml LOG|CLOUD_FILE [--out RESULT.json] [--write-robot CALIBRATED.yaml]
+                     [--config GROUND.yaml] [--no-grid] [--report DIR] [--quiet]
 
 Calibrates the 3D lidar's height, pitch and roll above the floor (robot file
 lidar3d) from the CLOUD messages of a recording, or from one PCD file (.pcd) or
@@ -24,6 +24,9 @@ runs as a cross-check; both estimates are printed side by side. A lidar that
 turns on its mount (lidar3d.rotation) gets one estimate per sector of its
 rotation range. Method and options: docs/ground.md.
   --out RESULT.json    write the result (spec/cli.md, plus grid and sectors), atomically
+  --write-robot FILE   write ROBOT.yaml back with lidar3d z, pitch, roll calibrated (m, rad),
+                       its comments and layout kept, each value rounded to its sigma;
+                       std: and source: added (spec/robot.md)
   --config FILE        options (defaults and every key: config/ground.yaml)
   --no-grid            skip the grid search
   --report DIR         human report (docs/reports.md): index.html, summary.txt and SVG plots
@@ -37,17 +40,22 @@ obstacles, a floor that tilts between frames, a sector without data), 1 internal
 }  // namespace
 
 int Ground(int argc, char** argv) {
-  const auto args = agvcal_process::ParseArgs(argc, argv, 2, {"--out", "--config", "--report"},
+  const auto args = agvcal_process::ParseArgs(argc, argv, 2, {"--out", "--write-robot", "--config", "--report"},
                                               {"--no-grid", "--quiet"});
   if (const auto status = agvcal_process::CheckUsage(args, kUsage, 2)) return *status;
   const calib::RobotDescription robot = calib::LoadRobotFile(args.positional[0]);
   const calib::GroundOptions options =
       args.Has("--config") ? calib::LoadGroundOptions(args.Get("--config", "")) : calib::GroundOptions{};
+  for (const char* option : {"--out", "--write-robot"})  // checked before the work (exit 2 at once)
+    if (args.Has(option)) calib::CheckWritableFile(args.Get(option, ""), option);
   if (args.Has("--report")) calib::PrepareReportDir(args.Get("--report", ""));  // a bad folder fails first
   calib::GroundInput input;
   const calib::GroundResult result = calib::CalibrateGroundFile(
       robot, options, args.positional[1], !args.Has("--no-grid"), &input);
   if (args.Has("--out")) calib::WriteFileAtomically(args.Get("--out", ""), calib::GroundResultJson(result, input));
+  if (args.Has("--write-robot"))
+    calib::WriteFileAtomically(args.Get("--write-robot", ""),
+                               calib::GroundCalibratedRobotYaml(robot, result, args.positional[1]));
   if (args.Has("--report")) calib::WriteGroundReportDir(robot, result, input, args.Get("--report", ""));
   if (!args.Has("--quiet")) std::cout << calib::GroundResultText(result, input);
   return calib::kExitOk;

@@ -1,3 +1,6 @@
+#include <unistd.h>
+
+#include <cstdio>
 #include <iostream>
 
 #include "calib/core/errors.h"
@@ -14,7 +17,8 @@ Runs the trajectory commander against the simulated robot of SIM.yaml faster
 than real time and writes every message (DRIVE_CMD, WHEELS, SCAN, IMU, CLOUD,
 POSE, GROUND_TRUTH) to OUT.log, an lcm-logger recording. The same config and
 seed give the same bytes.
-  --trajectory NAME  excitation trajectory (default "default"; see config/sims/README)
+  --trajectory NAME  excitation trajectory (default "default"; names per drive type:
+                     config/sims/README.md)
   --seed N           overrides the config's seed
   --quiet            no progress on stderr
 )";
@@ -33,15 +37,20 @@ int Simulate(int argc, char** argv) {
   calib::OfflineRunOptions options;
   options.trajectory = args.Get("--trajectory", "default");
   const bool quiet = args.Has("--quiet");
+  // On a terminal one line rewritten in place (\r); into a file or a pipe a line per minute of
+  // simulated time, so that a log holds readable lines, not one line of carriage returns.
+  const bool terminal = isatty(fileno(stderr)) != 0;
   if (!quiet)
-    options.progress = [](double t, double) {
-      if (static_cast<int>(t) % 10 == 0) std::cerr << "\rsimulated " << t << " s" << std::flush;
+    options.progress = [terminal](double t, double) {
+      const int s = static_cast<int>(t);
+      if (terminal && s % 10 == 0) std::cerr << "\rsimulated " << s << " s" << std::flush;
+      if (!terminal && s > 0 && s % 60 == 0) std::cerr << "simulated " << s << " s\n";
     };
   calib::LogWriter writer(args.positional[1]);
   const calib::OfflineRunSummary summary = calib::RunOffline(config, options, &writer);
   writer.Close();
   if (!quiet)
-    std::cerr << "\rsimulated " << summary.duration_s << " s, " << writer.events()
+    std::cerr << (terminal ? "\r" : "") << "simulated " << summary.duration_s << " s, " << writer.events()
               << " messages -> " << args.positional[1] << "\n";
   return calib::kExitOk;
 }

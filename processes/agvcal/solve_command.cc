@@ -11,6 +11,7 @@
 #include "calib/core/statistics.h"
 #include "calib/io/atomic_file.h"
 #include "calib/io/log_summary.h"
+#include "calib/core/units.h"
 #include "commands.h"
 #include "common/process_util.h"
 
@@ -52,8 +53,16 @@ Exit status: 0 done; 2 unusable input; 3 the recording cannot determine a
 parameter (stderr names it and the motion to add); 1 internal error.
 )";
 
+// value ± sigma in the parameter's unit (angles: rad with degrees beside), rounded to the sigma.
 void PrintEstimate(const std::string& name, const calib::Estimate& e) {
-  std::printf("  %-18s %12.6f  ± %-10.6f (nominal %.6f)\n", name.c_str(), e.value, e.std, e.nominal);
+  const std::string unit = calib::ParamUnit(name);
+  std::string estimate = calib::EstimateText(e.value, e.std, unit);
+  // Pad to 48 columns counting characters, not bytes ("±" is two bytes in UTF-8).
+  std::size_t width = 0;
+  for (const char c : estimate) width += (static_cast<unsigned char>(c) & 0xC0) != 0x80;
+  estimate += std::string(width < 48 ? 48 - width : 1, ' ');
+  std::printf("  %-20s %s(nominal %.6g%s)\n", name.c_str(), estimate.c_str(), e.nominal,
+              unit.empty() ? "" : (" " + unit).c_str());
 }
 }  // namespace
 
@@ -91,6 +100,8 @@ int Solve(int argc, char** argv) {
   if (args.Has("--distance")) options.imu.distance_m = positive("--distance");
   if (args.Has("--distance-std")) options.imu.distance_std_m = positive("--distance-std");
   if (args.Has("--turn-angle")) options.imu.turn_angle_rad = positive("--turn-angle") * M_PI / 180.0;
+  for (const char* option : {"--out", "--write-robot"})  // checked before the work (exit 2 at once)
+    if (args.Has(option)) calib::CheckWritableFile(args.Get(option, ""), option);
   if (!args.Has("--quiet")) options.progress = [](const std::string& line) { std::cerr << line << "\n"; };
 
   if (args.Has("--report")) calib::PrepareReportDir(args.Get("--report", ""));  // a bad folder fails first
@@ -101,9 +112,11 @@ int Solve(int argc, char** argv) {
     std::cerr << "agvcal: " << result.input_dropped << " message(s) of " << log_path
               << " left out of the fit (RESULT.json input.notes)\n";
 
-  std::printf("%s drive, %d intervals (%d outliers), residual rms %.2f mm, %.2f mm, %.3f deg\n",
+  std::printf("%s drive, %d intervals (%d outliers), residual rms x %s, y %s, yaw %s\n",
               calib::DriveTypeName(result.drive), result.residual.intervals, result.residual.outliers,
-              result.residual.rms_x * 1e3, result.residual.rms_y * 1e3, result.residual.rms_yaw * 180 / M_PI);
+              calib::MillimetresText(result.residual.rms_x).c_str(), calib::MillimetresText(result.residual.rms_y).c_str(),
+              calib::AngleText(result.residual.rms_yaw).c_str());
+  std::printf("  %-20s %-48s %s\n", "parameter", "estimate ± 1 sigma", "(nominal: the robot file)");
   for (const std::string& name : result.param_names) PrintEstimate(name, result.params.at(name));
   if (result.imu) {
     PrintEstimate("imu.gyro_bias", result.imu->gyro_bias);
@@ -127,28 +140,31 @@ int Solve(int argc, char** argv) {
   }
   if (result.heldout) {
     const calib::HeldoutComparison& h = *result.heldout;
-    std::printf("held-out odometry error per metre: nominal %.4f, calibrated %.4f (%d windows of %.2f m)\n",
+    std::printf("held-out odometry error per metre: nominal %.4f m/m, calibrated %.4f m/m (%d windows of %.2f m)\n",
                 h.nominal.error_per_metre, h.calibrated.error_per_metre, h.calibrated.windows, h.window_m);
-    std::printf("  calibrated better in %d of %d windows (sign test p = %.3g); end error %+.4f ± %.4f m\n",
-                h.paired.second_better, h.paired.windows - h.paired.ties, h.paired.sign_test_p,
+    std::printf("  calibrated better in %d of %d windows (sign test %s); end error %+.4f ± %.4f m\n",
+                h.paired.second_better, h.paired.windows - h.paired.ties, calib::PValueText(h.paired.sign_test_p).c_str(),
                 h.paired.mean_difference, h.paired.difference_sem);
-    std::printf("  %s: fit half %.3g..%.3g, held-out %.3g..%.3g, %.0f %% of held-out intervals outside the fit's range\n",
-                h.coverage.regressor.c_str(), h.coverage.fit_low, h.coverage.fit_high, h.coverage.heldout_low,
-                h.coverage.heldout_high, 100 * h.coverage.heldout_outside);
+    const char* range_unit = h.coverage.regressor == "steer" ? " rad" : "";  // turn_share: a fraction
+    std::printf("  %s: fit half %.3g..%.3g%s, held-out %.3g..%.3g%s, %.0f %% of held-out intervals outside the fit's range\n",
+                h.coverage.regressor.c_str(), h.coverage.fit_low, h.coverage.fit_high, range_unit, h.coverage.heldout_low,
+                h.coverage.heldout_high, range_unit, 100 * h.coverage.heldout_outside);
     if (h.paired_within_fit_range.windows < h.paired.windows) {
-      std::printf("  windows inside the fit's range: calibrated better in %d of %d (sign test p = %.3g)\n",
+      std::printf("  windows inside the fit's range: calibrated better in %d of %d (sign test %s)\n",
                   h.paired_within_fit_range.second_better,
                   h.paired_within_fit_range.windows - h.paired_within_fit_range.ties,
-                  h.paired_within_fit_range.sign_test_p);
+                  calib::PValueText(h.paired_within_fit_range.sign_test_p).c_str());
     }
     if (h.halves) {
       const calib::HalvesAgreement& a = *h.halves;
       const calib::Estimate& fit = a.largest_in_fit;
       const calib::Estimate& alone = a.heldout_fit.at(a.largest);
-      std::printf("  the held-out half fitted alone: the halves %s (d2 = %.1f, %d dof, p = %.2g); most apart:\n"
-                  "  %s %.6g ± %.2g (fit half), %.6g ± %.2g (held-out half), %.1f sigma\n",
-                  a.p < 0.01 ? "disagree" : "agree", a.d2, a.dof, a.p, a.largest.c_str(), fit.value, fit.std,
-                  alone.value, alone.std, a.largest_sigmas);
+      const std::string unit = calib::ParamUnit(a.largest);
+      std::printf("  the held-out half fitted alone: the halves %s (d2 = %.1f, %d dof, %s); most apart:\n"
+                  "  %s %s (fit half), %s (held-out half), %.1f sigma\n",
+                  a.p < 0.01 ? "disagree" : "agree", a.d2, a.dof, calib::PValueText(a.p).c_str(), a.largest.c_str(),
+                  calib::EstimateText(fit.value, fit.std, unit).c_str(),
+                  calib::EstimateText(alone.value, alone.std, unit).c_str(), a.largest_sigmas);
       if (a.p < 0.01)
         std::printf("  no fixed calibration fits both halves: the robot's odometry changed during the recording,\n"
                     "  or physics the model leaves out acts differently on the halves' motions (agvcal diagnose)\n");

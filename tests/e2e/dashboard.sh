@@ -60,6 +60,8 @@ exit 0
 RUN
 expect_status 0 "replay with the dashboard in tmux" timeout 180 scripts/netns-run bash "$TMP/run.sh"
 [ -s "$TMP/run.err" ] && fail "$(cat "$TMP/run.err")"
+# The screens, for docs/live.md's text capture: AGVCAL_DASHBOARD_CAPTURES=DIR keeps them.
+if [ -n "${AGVCAL_DASHBOARD_CAPTURES:-}" ]; then mkdir -p "$AGVCAL_DASHBOARD_CAPTURES" && cp "$TMP"/*.txt "$AGVCAL_DASHBOARD_CAPTURES"/; fi
 
 python3 - "$TMP" <<'PY'
 import json, os, re, sys

@@ -28,7 +28,6 @@ assert d[0]["improvement"]["relative"] > 0.8 and d[0]["improvement"]["p"] < 0.05
 assert d[0]["consistency"]["consistent"], d[0]["consistency"]
 assert not d[1]["improvement"]["significant"], d[1]["improvement"]
 assert len(d[0]["segments"]["heldout"]) == 4 and len(d[0]["segments"]["fit"]) == 8
-assert d[1]["in_use"]["drive_radius"]["value"] == d[0]["candidate"]["drive_radius"]["value"]
 # Simulator truth (config/sims/forklift_route.yaml); tolerances about 5 sigma of the fit.
 truth = {"drive_radius": (0.1163, 0.0004), "wheelbase": (1.4335, 0.005), "steer_offset": (0.0131, 0.0005),
          "lidar2d.x": (1.6152, 0.015), "lidar2d.y": (0.0123, 0.003), "lidar2d.yaw": (-0.0142, 0.002)}
@@ -36,8 +35,12 @@ for name, (value, tol) in truth.items():
     got = d[0]["candidate"][name]["value"]
     assert abs(got - value) < tol, (name, got, value)
 text = open(sys.argv[2]).read()
-radius = float(re.search(r"drive_radius: ([0-9.e-]+)", text).group(1))
-assert radius == d[0]["candidate"]["drive_radius"]["value"], radius
+# The robot file holds the candidate rounded to its sigma, and the run goes on from exactly
+# what the file holds (as a restart from it does).
+written = re.search(r"drive_radius: ([0-9.e-]+)", text).group(1)
+radius, decimals = float(written), len(written.split(".")[1])
+assert abs(radius - d[0]["candidate"]["drive_radius"]["value"]) <= 0.5 * 10 ** -decimals + 1e-15, written
+assert d[1]["in_use"]["drive_radius"]["value"] == radius, (d[1]["in_use"]["drive_radius"], radius)
 PY
 
 # Live: the same recording through the bus.

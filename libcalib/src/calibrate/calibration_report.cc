@@ -10,6 +10,7 @@
 
 #include "calib/core/se2.h"
 #include "calib/io/atomic_file.h"
+#include "calib/core/units.h"
 #include "io/report_page.h"
 #include "io/svg_plot.h"
 
@@ -213,7 +214,7 @@ void AddCalibration(const CalibrationResult& r, int64_t t0, const std::string& b
     page->Paragraph("Odometry chained over windows of " + SignificantDigits(h.window_m, 2) + " m of path on the " +
                     std::to_string(h.intervals) + " held-out intervals, which the fit did not see. Calibrated better in " +
                     std::to_string(h.paired.second_better) + " of " + std::to_string(h.paired.windows - h.paired.ties) +
-                    " windows (sign test p = " + PValueText(h.paired.sign_test_p) + ").");
+                    " windows (sign test " + PValueText(h.paired.sign_test_p) + ").");
     page->Table({"model", "windows", "error per metre", "RMS position error", "RMS heading error"}, HeldoutRows(h));
     WriteFileAtomically(dir + "/heldout_windows.svg", HeldoutWindowsPlot(h, t0));
     page->Figure("heldout_windows.svg", "Held-out windows: error at each window's end, nominal and calibrated");
@@ -254,10 +255,10 @@ std::vector<std::vector<std::string>> DecisionRows(const RecalRun& run, int64_t 
                                  VerdictName(d.verdict), std::to_string(d.fit.size()) + " / " + std::to_string(d.heldout.size())};
     if (d.improvement)
       row.push_back(FixedDecimals(d.improvement->mean_current * 1e3, 2) + " → " + FixedDecimals(d.improvement->mean_candidate * 1e3, 2) +
-                    " mm/m (p = " + PValueText(d.improvement->p) + ")");
+                    " mm/m (" + PValueText(d.improvement->p) + ")");
     else
       row.push_back("-");
-    row.push_back(d.consistency ? "p = " + PValueText(d.consistency->p) + (d.consistency->consistent ? "" : ", moved: " +
+    row.push_back(d.consistency ? PValueText(d.consistency->p) + (d.consistency->consistent ? "" : ", moved: " +
                                   d.consistency->largest + " " + FixedDecimals(d.consistency->largest_sigmas, 1) + " σ")
                                 : "-");
     row.push_back(d.reason);
@@ -303,7 +304,7 @@ std::string SolveReportSummary(const CalibrationResult& r, const std::string& lo
   s << ObservabilityText(r) << "\n";
   if (r.heldout)
     s << "Held-out odometry error per metre: nominal " << FixedDecimals(r.heldout->nominal.error_per_metre * 1e3, 2)
-      << " mm/m, calibrated " << FixedDecimals(r.heldout->calibrated.error_per_metre * 1e3, 2) << " mm/m (sign test p = "
+      << " mm/m, calibrated " << FixedDecimals(r.heldout->calibrated.error_per_metre * 1e3, 2) << " mm/m (sign test "
       << PValueText(r.heldout->paired.sign_test_p) << ").\n";
   return s.str();
 }

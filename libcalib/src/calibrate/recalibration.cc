@@ -16,6 +16,7 @@
 #include "calib/calibrate/result_files.h"
 #include "calib/core/errors.h"
 #include "calib/core/statistics.h"
+#include "calib/core/units.h"
 #include "calib/io/atomic_file.h"
 #include "calib/io/messages.h"
 #include "core/yaml_checked.h"
@@ -199,6 +200,32 @@ std::vector<std::string> ValueNames(DriveType drive, MotionSource source) {
   std::vector<std::string> names = ParamNames(drive);
   for (const char* axis : {".x", ".y", ".yaw"}) names.push_back(MotionSourceName(source) + std::string(axis));
   return names;
+}
+
+// The calibration as the robot file holds it once written (result_files.h): each value rounded
+// to its sigma, the sigma to two digits, no correlations; so a restart from that file goes on
+// bit for bit as this run does.
+CalibrationInUse AsWrittenToRobotFile(const CalibrationInUse& c) {
+  CalibrationInUse out = c;
+  const int k = static_cast<int>(c.names.size());
+  out.covariance = Eigen::MatrixXd::Zero(k, k);
+  for (int i = 0; i < k; ++i) {
+    const double sigma = std::sqrt(c.covariance(i, i));
+    out.value[i] = std::strtod(RoundedToSigma(c.value[i], sigma).c_str(), nullptr);
+    const double written_sigma =
+        DecimalsForSigma(sigma) >= 0 ? std::strtod(RoundedToSigma(sigma, sigma).c_str(), nullptr) : sigma;
+    out.covariance(i, i) = written_sigma * written_sigma;
+    const std::string& name = c.names[i];
+    const auto dot = name.find('.');
+    if (dot == std::string::npos) {
+      out.robot.params[name] = out.value[i];
+      continue;
+    }
+    std::optional<Mount2d>& m = name.compare(0, dot, "pose") == 0 ? out.robot.pose : out.robot.lidar2d;
+    const std::string axis = name.substr(dot + 1);
+    (axis == "x" ? m->x : axis == "y" ? m->y : m->yaw) = out.value[i];
+  }
+  return out;
 }
 
 // The candidate from a fit: the in-use robot with the fitted values and the fit's covariance.
@@ -571,9 +598,9 @@ RecalDecision Decide(const SegmentBatch& batch, const CalibrationInUse& in_use,
       "held-out odometry error " + Num(imp.mean_current * 100) + " -> " + Num(imp.mean_candidate * 100) +
       " cm/m over " + std::to_string(heldout.size()) + " segments (" + (imp.relative < 0 ? "+" : "") +
       Num(-imp.relative * 100, 2) +
-      "%, t = " + Num(imp.t) + ", p = " + Num(imp.p, 2);
+      "%, t = " + Num(imp.t) + ", " + PValueText(imp.p);
   const std::string consistency_text =
-      "d2 = " + Num(con.d2) + ", " + std::to_string(con.dof) + " dof, p = " + Num(con.p, 2) +
+      "d2 = " + Num(con.d2) + ", " + std::to_string(con.dof) + " dof, " + PValueText(con.p) +
       (con.consistent ? " >= " : " < ") + Num(config.consistency_alpha) + "; largest change " +
       con.largest + " " + Num(con.largest_sigmas, 2) + " sigma";
   const std::string better = imp.significant
@@ -585,9 +612,7 @@ RecalDecision Decide(const SegmentBatch& batch, const CalibrationInUse& in_use,
       std::string(con.consistent ? "consistent" : "inconsistent") + " with the calibration in use: " + consistency_text;
   if (imp.significant && con.consistent) {
     d.verdict = Verdict::kAccepted;
-    d.after = *d.candidate;
-    // As the robot file's std: reads back: a restart goes on bit for bit.
-    d.after.covariance = d.candidate->covariance.diagonal().cwiseSqrt().cwiseAbs2().asDiagonal();
+    d.after = AsWrittenToRobotFile(*d.candidate);
     d.reason = better + "; " + consistent;
   } else {
     d.verdict = Verdict::kRejected;
@@ -634,7 +659,7 @@ void RecordDecision(const RecalDecision& d, const std::string& robot_out,
   if (d.verdict == Verdict::kAccepted && !robot_out.empty()) {
     std::string source = "recalibration decision " + std::to_string(d.number) + ", segments";
     for (const Segment& s : d.fit) source += " " + std::to_string(s.index);
-    WriteFileAtomically(robot_out, CalibratedRobotYaml(d.in_use.robot, *d.fit_result, source));
+    WriteFileAtomically(robot_out, CalibratedRobotYaml(d.in_use.robot, *d.fit_result, source, "recal"));
   }
   if (!decisions_path.empty()) AppendFileAtomically(decisions_path, DecisionJson(d) + "\n");
 }

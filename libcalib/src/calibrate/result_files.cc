@@ -3,10 +3,10 @@
 #include <cmath>
 
 #include <nlohmann/json.hpp>
-#include <yaml-cpp/yaml.h>
 
 #include "calib/calibrate/calibration.h"
 #include "calib/calibrate/heldout.h"
+#include "calib/core/robot_file_edit.h"
 #include "calib/core/statistics.h"
 
 namespace calib {
@@ -109,43 +109,28 @@ std::string CalibrationResultJson(const CalibrationResult& r) {
 }
 
 std::string CalibratedRobotYaml(const RobotDescription& robot, const CalibrationResult& r,
-                                const std::string& log_path) {
-  YAML::Node root = YAML::LoadFile(robot.source_file);
-  YAML::Node std_node;
-  for (const auto& [name, e] : r.params) {
-    root["params"][name] = e.value;
-    std_node["params"][name] = e.std;
+                                const std::string& log_path, const std::string& command) {
+  std::vector<RobotFileValue> values;
+  for (const std::string& name : r.param_names) {
+    const Estimate& e = r.params.at(name);
+    values.push_back({"params." + name, e.value, e.std});
   }
   if (r.imu) {
-    const RobotDescription calibrated = Calibrated(robot, r);
-    const ImuMount& imu = *calibrated.imu;
-    if (!root["imu"]) root["imu"]["channel"] = imu.channel;
-    root["imu"]["yaw"] = imu.yaw;
-    root["imu"]["gyro_bias"] = imu.gyro_bias;
-    root["imu"]["gyro_scale"] = imu.gyro_scale;
-    root["imu"]["time_offset"] = imu.time_offset;
-    root["imu"]["gyro_noise"] = imu.gyro_noise;
-    root["imu"]["wheel_noise"] = imu.wheel_noise;
-    std_node["imu"]["yaw"] = r.imu->yaw.std;
-    std_node["imu"]["gyro_bias"] = r.imu->gyro_bias.std;
-    std_node["imu"]["gyro_scale"] = r.imu->gyro_scale.std;
-    std_node["imu"]["time_offset"] = r.imu->time_offset.std;
+    const ImuMount imu = *Calibrated(robot, r).imu;
+    values.push_back({"imu.yaw", imu.yaw, r.imu->yaw.std});
+    values.push_back({"imu.gyro_bias", imu.gyro_bias, r.imu->gyro_bias.std});
+    values.push_back({"imu.gyro_scale", imu.gyro_scale, r.imu->gyro_scale.std});
+    values.push_back({"imu.time_offset", imu.time_offset, r.imu->time_offset.std});
+    // Noise levels: no sigma of their own; three significant digits.
+    values.push_back({"imu.gyro_noise", imu.gyro_noise, 0.0, 3});
+    values.push_back({"imu.wheel_noise", imu.wheel_noise, 0.0, 3});
   } else {
     const std::string mount = MotionSourceName(r.source);
-    if (!root[mount]) root[mount]["channel"] = r.source == MotionSource::kPose ? "POSE" : "SCAN";
-    root[mount]["x"] = r.mount_x.value;
-    root[mount]["y"] = r.mount_y.value;
-    root[mount]["yaw"] = r.mount_yaw.value;
-    std_node[mount]["x"] = r.mount_x.std;
-    std_node[mount]["y"] = r.mount_y.std;
-    std_node[mount]["yaw"] = r.mount_yaw.std;
+    values.push_back({mount + ".x", r.mount_x.value, r.mount_x.std});
+    values.push_back({mount + ".y", r.mount_y.value, r.mount_y.std});
+    values.push_back({mount + ".yaw", r.mount_yaw.value, r.mount_yaw.std});
   }
-  root["std"] = std_node;
-  root["source"] = log_path;
-  YAML::Emitter out;
-  out.SetDoublePrecision(9);
-  out << root;
-  return std::string("# Calibrated by agvcal solve from ") + log_path + "\n" + out.c_str() + "\n";
+  return WriteCalibratedRobotFile(robot.source_file, values, command, log_path);
 }
 
 }  // namespace calib

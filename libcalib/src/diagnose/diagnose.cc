@@ -935,9 +935,21 @@ DiagnoseReport Diagnoser::Run() {
   BuildIntervals();
 
   // Starting values: the calibration of calibration.h on everything (it is only a start).
+  // Where `agvcal solve` refuses (a straight-only recording), so does the diagnosis: a model
+  // with parameters held at their nominal values would blame their error on missing physics,
+  // or call the recording explained (spec/cli.md: exit 3, naming what and the motion to add).
   CalibrationOptions co;
+  const CalibrationResult cal = [&] {
+    try {
+      return Calibrate(robot_, data_.wheels, data_.motions, data_.source, co, origin_);
+    } catch (const UnobservableError& e) {
+      const std::string what = e.what();
+      throw UnobservableError(what.substr(0, what.size() - std::min(what.size(), e.remedy().size() + 2)) +
+                                  ", so the calibration the diagnosis compares with cannot be made",
+                              e.remedy());
+    }
+  }();
   co.check_observability = false;
-  const CalibrationResult cal = Calibrate(robot_, data_.wheels, data_.motions, data_.source, co, origin_);
   co.estimate_time_offset = true;
   co.max_time_offset_s = kMaxOffsetS;
   offset_start_ = Calibrate(robot_, data_.wheels, data_.motions, data_.source, co, origin_).time_offset->value;

@@ -2,11 +2,13 @@
 // and the simulation config that reproduces the robot.
 
 #include <cmath>
+#include <map>
 #include <sstream>
 
 #include <nlohmann/json.hpp>
 
 #include "calib/calibrate/heldout.h"
+#include "calib/core/units.h"
 #include "calib/diagnose/diagnose.h"
 
 namespace calib {
@@ -51,16 +53,33 @@ std::string Percent(double before, double after) {
 }
 
 const char* Unit(const std::string& component) {
-  if (component == "yaw") return "rad";
+  if (component == "yaw" || component == "heading") return "rad";
   if (component == "speed") return "rad/s";
   if (component == "steer") return "rad";
   return "m";
+}
+
+// "before -> after unit": lengths in mm, angles in rad with degrees beside (units.h).
+std::string BeforeAfter(double before, double after, const std::string& unit) {
+  if (unit == "m") return MillimetresText(before, 3) + " -> " + MillimetresText(after, 3);
+  return QuantityText(before, unit, 3) + " -> " + QuantityText(after, unit, 3);
 }
 
 }  // namespace
 
 int64_t ReportTimeOrigin(const DiagnoseReport& r) {
   return r.recording_start_utime ? r.recording_start_utime : r.intervals.empty() ? 0 : r.intervals.front().utime_start;
+}
+
+std::string EffectSizeKey(const std::string& effect_name) {
+  static const std::map<std::string, std::string> kKeys = {
+      {"time_offset", "offset_s"},       {"scan_distortion", "scan_period_s"},
+      {"longitudinal_slip", "slip_per_accel"}, {"lateral_slip", "gain"},
+      {"steering_lag", "tau_s"},         {"steering_backlash", "width_rad"},
+      {"wheel_eccentricity", "amplitude"}, {"drive_lag", "tau_s"},
+      {"steering_rate_limit", "rate_rad_s"}, {"travel_direction_offset", "offset_rad"}};
+  const auto it = kKeys.find(effect_name);
+  return it == kKeys.end() ? "" : it->second;
 }
 
 const char* CandidateStatusName(CandidateStatus status) {
@@ -178,27 +197,28 @@ std::string DiagnoseSummaryText(const DiagnoseReport& r) {
     auto judges = [&e](const char* measure) { return e.heldout_measure == measure ? "  <- judges it\n" : "\n"; };
     s << "\nMISSING PHYSICS: " << e.name << (e.wheel.empty() ? "" : " (wheel " + e.wheel + ")") << ", "
       << e.layer << " layer.\n  size:";
-    for (const auto& [k, v] : e.params) s << " " << k << " = " << v.value << " +- " << v.std;
-    s << "\n  evidence: p = " << e.p_adjusted << " after the catalogue-wide correction";
+    for (const auto& [k, v] : e.params) s << " " << k << " = " << EstimateText(v.value, v.std, ParamUnit(k));
+    s << "\n  evidence: " << PValueText(e.p_adjusted) << " after the catalogue-wide correction";
     if (e.delta_bic != 0) s << ", delta BIC " << e.delta_bic;
     s << "\n  where: " << e.where.size() << " time spans, " << e.regime << "\n";
     if (!e.where.empty())
       s << "  at " << SpanTimes(e.where, ReportTimeOrigin(r)) << " (s since the recording's first message)\n";
-    s << "  held-out " << e.component << " residual where it acts: " << e.heldout_rms_before << " -> "
-      << e.heldout_rms_after << " " << Unit(e.component) << " (" << Percent(e.heldout_rms_before, e.heldout_rms_after)
-      << " lower); over all held-out data " << e.heldout_rms_all_before << " -> " << e.heldout_rms_all_after
-      << " (" << Percent(e.heldout_rms_all_before, e.heldout_rms_all_after) << ")" << judges("per_interval");
+    s << "  held-out " << e.component << " residual where it acts: "
+      << BeforeAfter(e.heldout_rms_before, e.heldout_rms_after, Unit(e.component)) << " ("
+      << Percent(e.heldout_rms_before, e.heldout_rms_after) << " lower); over all held-out data "
+      << BeforeAfter(e.heldout_rms_all_before, e.heldout_rms_all_after, Unit(e.component)) << " ("
+      << Percent(e.heldout_rms_all_before, e.heldout_rms_all_after) << ")" << judges("per_interval");
     if (!e.stretches.empty()) {
       s << "  held-out " << e.component << " error chained over the stretch of each held-out block where it acts most ("
-        << e.stretches.size() << " stretches): " << e.heldout_stretch_before << " -> " << e.heldout_stretch_after << " "
-        << Unit(e.component) << " (" << Percent(e.heldout_stretch_before, e.heldout_stretch_after) << " lower)"
-        << judges("stretch");
+        << e.stretches.size() << " stretches): "
+        << BeforeAfter(e.heldout_stretch_before, e.heldout_stretch_after, Unit(e.component)) << " ("
+        << Percent(e.heldout_stretch_before, e.heldout_stretch_after) << " lower)" << judges("stretch");
     }
     if (!e.drift_component.empty()) {
-      const char* unit = e.drift_component == "heading" ? "rad" : "m";
       s << "  held-out dead-reckoning " << e.drift_component << " error over " << e.drift_window_s << " s ("
-        << e.drift_windows << " windows): " << e.heldout_drift_before << " -> " << e.heldout_drift_after << " "
-        << unit << " (" << Percent(e.heldout_drift_before, e.heldout_drift_after) << " lower)" << judges("drift");
+        << e.drift_windows << " windows): "
+        << BeforeAfter(e.heldout_drift_before, e.heldout_drift_after, Unit(e.drift_component)) << " ("
+        << Percent(e.heldout_drift_before, e.heldout_drift_after) << " lower)" << judges("drift");
     }
   }
   for (const Indistinguishable& d : r.indistinguishable)
@@ -215,15 +235,16 @@ std::string DiagnoseSummaryText(const DiagnoseReport& r) {
     s << "\nUNEXPLAINED residual structure (no catalogued effect): correlates with " << u.correlates_with
       << ", in " << u.where.size() << " spans: " << SpanTimes(u.where, ReportTimeOrigin(r))
       << " (s since the recording's first message).\n";
-  s << "\nOverall held-out residual RMS x, y, yaw: " << r.heldout_rms_before[0] << ", " << r.heldout_rms_before[1]
-    << ", " << r.heldout_rms_before[2] << " -> " << r.heldout_rms_after[0] << ", " << r.heldout_rms_after[1] << ", "
-    << r.heldout_rms_after[2] << " (chi2 per interval " << r.heldout_chi2_before << " -> " << r.heldout_chi2_after
-    << ")\n";
+  s << "\nOverall held-out residual RMS: x " << BeforeAfter(r.heldout_rms_before[0], r.heldout_rms_after[0], "m")
+    << ", y " << BeforeAfter(r.heldout_rms_before[1], r.heldout_rms_after[1], "m") << ", yaw "
+    << BeforeAfter(r.heldout_rms_before[2], r.heldout_rms_after[2], "rad") << " (chi2 per interval "
+    << r.heldout_chi2_before << " -> " << r.heldout_chi2_after << ")\n";
   const OdometryError& db = r.heldout_drift_before;
   const OdometryError& da = r.heldout_drift_after;
   if (da.windows > 0)
-    s << "Held-out dead reckoning over " << da.windows << " windows: translation " << db.rms_translation_m << " -> "
-      << da.rms_translation_m << " m, heading " << db.rms_heading_rad << " -> " << da.rms_heading_rad << " rad\n";
+    s << "Held-out dead reckoning over " << da.windows << " windows: translation "
+      << BeforeAfter(db.rms_translation_m, da.rms_translation_m, "m") << ", heading "
+      << BeforeAfter(db.rms_heading_rad, da.rms_heading_rad, "rad") << "\n";
   for (const std::string& n : r.notes) s << "note: " << n << "\n";
   return s.str();
 }

@@ -9,6 +9,7 @@
 #include "calib/calibrate/calibration_report.h"
 #include "calib/diagnose/diagnose.h"
 #include "calib/io/atomic_file.h"
+#include "calib/core/units.h"
 #include "io/report_page.h"
 #include "io/svg_plot.h"
 
@@ -204,7 +205,7 @@ std::vector<std::vector<std::string>> CandidateRows(const DiagnoseReport& r) {
     rows.push_back({c.name + (c.wheel.empty() ? "" : " (" + c.wheel + ")"), c.layer, CandidateStatusName(c.status),
                     ValueWithSigma(c.estimate.value, c.estimate.std) + " " + unit,
                     std::isfinite(c.detectable) && c.detectable > 0 ? SignificantDigits(c.detectable, 2) + " " + unit : "-",
-                    PValueText(c.p_adjusted), reason});
+                    PValueNumber(c.p_adjusted), reason});
   }
   return rows;
 }
@@ -228,7 +229,7 @@ std::vector<std::vector<std::string>> EffectRows(const DiagnoseReport& r, const 
     for (std::size_t i = 0; i < e.where.size() && i < 6; ++i)
       where += (i ? ", " : "") + FixedDecimals(sec(e.where[i].utime_start), 1) + "–" + FixedDecimals(sec(e.where[i].utime_end), 1) + " s";
     if (e.where.size() > 6) where += ", … (" + std::to_string(e.where.size()) + " spans)";
-    rows.push_back({e.name + (e.wheel.empty() ? "" : " (" + e.wheel + ")"), size, PValueText(e.p_adjusted),
+    rows.push_back({e.name + (e.wheel.empty() ? "" : " (" + e.wheel + ")"), size, PValueNumber(e.p_adjusted),
                     where.empty() ? "-" : where, e.regime});
   }
   return rows;

@@ -4,6 +4,7 @@
 #include <cmath>
 #include <sstream>
 
+#include "calib/core/units.h"
 #include "diagnose/diagnose_internal.h"
 
 namespace calib::diag {
@@ -58,7 +59,9 @@ SingleVerdicts JudgeSingles(const std::vector<SingleFit>& fits, const SelectionL
       o.status = CandidateStatus::kRejected;  // until the selection chooses it
     } else if (!(o.detectable < f.plausible)) {
       o.status = CandidateStatus::kNotIdentifiable;
-      o.note = "this recording could only detect it above " + std::to_string(o.detectable) + "; drive " + f.excitation;
+      const std::string unit = ParamUnit(EffectSizeKey(f.name));
+      o.note = "this recording could only detect it above " + QuantityText(o.detectable, unit, 3) +
+               (unit.empty() ? " (relative)" : "") + "; drive " + f.excitation;
     } else {
       o.status = CandidateStatus::kNotSignificant;
     }

@@ -8,6 +8,8 @@
 #include <nlohmann/json.hpp>
 
 #include "calib/core/errors.h"
+#include "calib/core/robot_file_edit.h"
+#include "calib/core/units.h"
 #include "calib/io/cloud_file.h"
 #include "calib/io/message_source.h"
 
@@ -200,36 +202,46 @@ std::string GroundResultText(const GroundResult& result, const GroundInput& inpu
   }
   out << "; " << e.frames << " frames used, " << e.frames_tilted << " tilted, floor inliers "
       << Format("%.1f", 100 * e.inliers) << " %, floor RMS " << Format("%.1f", 1000 * e.rms_m) << " mm\n";
-  out << "          robust fit (1 sigma)";
+  out << "  robust fit (value ± 1 sigma)";
   if (result.grid)
-    out << "          grid search (" << (result.grid->accepted ? "accepted" : "NOT accepted") << ", "
+    out << "; grid search (" << (result.grid->accepted ? "accepted" : "NOT accepted") << ", "
         << result.grid->rounds << " rounds, height error " << Format("%.1f", 1000 * result.grid->height_error_m)
         << " mm)";
   out << "\n";
-  auto row = [&](const char* name, double value, double sigma, double grid, double step, double scale,
-                 const char* unit) {
-    out << "  " << name << Format("%10.5f", value * scale) << " +- " << Format("%-9.2g", sigma * scale) << unit;
+  // Radians, the robot file's unit, with degrees beside (units.h); the grid column alike.
+  auto row = [&](const char* name, double value, double sigma, double grid, double step, const char* unit) {
+    out << "  " << name << "  " << EstimateText(value, sigma, unit);
     if (result.grid)
-      out << "   " << Format("%10.5f", grid * scale) << " " << unit << " (step " << Format("%.2g", step * scale) << ")";
+      out << "   grid " << QuantityText(grid, unit, 6) << ", step " << QuantityText(step, unit, 2);
     out << "\n";
   };
   const GridEstimate g = result.grid.value_or(GridEstimate{});
-  row("z    ", e.value.z, e.std.z, g.pose.z, g.step.z, 1.0, "m  ");
-  row("pitch", e.value.pitch, e.std.pitch, g.pose.pitch, g.step.pitch, 1 / kDeg, "deg");
-  row("roll ", e.value.roll, e.std.roll, g.pose.roll, g.step.roll, 1 / kDeg, "deg");
+  row("z    ", e.value.z, e.std.z, g.pose.z, g.step.z, "m");
+  row("pitch", e.value.pitch, e.std.pitch, g.pose.pitch, g.step.pitch, "rad");
+  row("roll ", e.value.roll, e.std.roll, g.pose.roll, g.step.roll, "rad");
   if (e.birge_ratio > 1.0)
     out << "  (frames scatter " << Format("%.2f", e.birge_ratio)
         << " x their own sigmas; sigmas inflated by that)\n";
   if (!result.sectors.empty()) {
-    out << "per sector: index   from deg    to deg  mean deg  frames       z m   pitch deg    roll deg\n";
+    out << "per sector: index   from deg    to deg  mean deg  frames       z m  pitch rad (deg)       roll rad (deg)\n";
     for (const SectorEstimate& s : result.sectors)
       out << "            " << Format("%5.0f", s.index) << Format("%11.2f", s.angle_min / kDeg)
           << Format("%10.2f", s.angle_max / kDeg) << Format("%10.2f", s.angle_mean / kDeg)
           << Format("%8.0f", s.estimate.frames) << Format("%10.5f", s.estimate.value.z)
-          << Format("%12.5f", s.estimate.value.pitch / kDeg) << Format("%12.5f", s.estimate.value.roll / kDeg)
-          << "\n";
+          << Format("%10.6f", s.estimate.value.pitch) << Format(" (%7.4f)", s.estimate.value.pitch / kDeg)
+          << Format("%11.6f", s.estimate.value.roll) << Format(" (%7.4f)", s.estimate.value.roll / kDeg) << "\n";
   }
   return out.str();
+}
+
+std::string GroundCalibratedRobotYaml(const RobotDescription& robot, const GroundResult& result,
+                                      const std::string& source) {
+  const MountEstimate& e = result.lidar3d;
+  return WriteCalibratedRobotFile(robot.source_file,
+                                  {{"lidar3d.z", e.value.z, e.std.z},
+                                   {"lidar3d.pitch", e.value.pitch, e.std.pitch},
+                                   {"lidar3d.roll", e.value.roll, e.std.roll}},
+                                  "ground", source);
 }
 
 }  // namespace calib

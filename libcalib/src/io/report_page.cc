@@ -97,12 +97,5 @@ std::string SignificantDigits(double value, int digits) {
   return buf;
 }
 
-std::string PValueText(double p) {
-  char buf[32];
-  if (!std::isfinite(p)) return "n/a";
-  if (p < 1e-12) return "< 1e-12";
-  std::snprintf(buf, sizeof buf, p < 1e-3 ? "%.1e" : "%.2g", p);
-  return buf;
-}
 
 }  // namespace calib

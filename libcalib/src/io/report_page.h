@@ -34,7 +34,5 @@ std::string ValueWithSigma(double value, double sigma);
 std::string FixedDecimals(double value, int decimals);
 std::string SignificantDigits(double value, int digits);
 
-// A p-value as a person reads it: "0.032", "3.1e-05", "< 1e-12".
-std::string PValueText(double p);
 
 }  // namespace calib

@@ -15,9 +15,11 @@ namespace calib {
 // comparison as extra keys.
 std::string CalibrationResultJson(const CalibrationResult& result);
 
-// The robot file `robot.source_file` with the calibrated values in place, their
-// standard deviations under `std:` and the log under `source:`. Other keys are kept.
+// The robot file `robot.source_file` with the calibrated values in place (its comments and
+// layout kept, each value rounded to its sigma: core/robot_file_edit.h), their standard
+// deviations under `std:` and the log under `source:`. `command` names the writer in the
+// first comment line.
 std::string CalibratedRobotYaml(const RobotDescription& robot, const CalibrationResult& result,
-                                const std::string& log_path);
+                                const std::string& log_path, const std::string& command = "solve");
 
 }  // namespace calib

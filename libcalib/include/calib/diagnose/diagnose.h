@@ -162,6 +162,10 @@ enum class CandidateStatus {
 };
 const char* CandidateStatusName(CandidateStatus status);
 
+// The parameter key (spec/effects.md) an effect's size is given in: "offset_s" for
+// time_offset, "slip_per_accel" for longitudinal_slip, ...; its unit: core/units.h ParamUnit.
+std::string EffectSizeKey(const std::string& effect_name);
+
 // Every candidate tested, with its outcome.
 struct CandidateOutcome {
   std::string name, layer, wheel;

@@ -101,4 +101,11 @@ std::string GroundResultText(const GroundResult& result, const GroundInput& inpu
 void WriteGroundReportDir(const RobotDescription& robot, const GroundResult& result, const GroundInput& input,
                           const std::string& dir);
 
+// The robot file `robot.source_file` with lidar3d z, pitch and roll (m, rad: the file's units)
+// calibrated in place, their sigmas under `std:` and `source` under `source:`; the file's
+// comments and layout kept (core/robot_file_edit.h). A rotating lidar: the sector holding
+// angle 0 (the robot file's mount).
+std::string GroundCalibratedRobotYaml(const RobotDescription& robot, const GroundResult& result,
+                                      const std::string& source);
+
 }  // namespace calib

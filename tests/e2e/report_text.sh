@@ -1,0 +1,82 @@
+#!/usr/bin/env bash
+# What a person reads (offline commands): units on printed numbers (solve's table, diagnose's
+# summary), p-values never "p = 0", progress without carriage returns into a file, result and
+# report paths checked before the analysis (exit 2 naming the path), a reused report folder
+# without the last run's figures, and diagnose refusing a straight-only recording as solve does.
+source "$(dirname "$0")/lib.bash" "$@"
+robot=config/robots/forklift.yaml
+log=logs/forklift_demo.log
+
+# solve's table: every parameter with its unit, angles in rad with degrees beside.
+expect_status 0 "solve" "$AGVCAL" solve $robot $log --quiet
+python3 - "$TMP/stdout" <<'PY' && pass "solve's table has units, rad with deg beside" || fail "solve's table: $(cat "$TMP/stdout")"
+import re, sys
+text = open(sys.argv[1]).read()
+assert re.search(r"residual rms x [0-9.]+ mm, y [0-9.]+ mm, yaw [0-9.e-]+ rad \([0-9.e-]+ deg\)", text), text
+rows = {m.group(1): m.group(2) for m in re.finditer(r"^  (\S+) +(-?[0-9].*?) +\(nominal", text, re.M)}
+assert set(rows) >= {"drive_radius", "wheelbase", "steer_offset", "lidar2d.x", "lidar2d.yaw"}, rows
+for name in ("drive_radius", "wheelbase", "lidar2d.x"):
+    assert re.fullmatch(r"-?[0-9.]+ ± [0-9.]+ m", rows[name]), (name, rows[name])
+for name in ("steer_offset", "lidar2d.yaw"):
+    assert re.fullmatch(r"-?[0-9.]+ ± [0-9.]+ rad \(-?[0-9.]+ ± [0-9.]+ deg\)", rows[name]), (name, rows[name])
+PY
+
+# diagnose's summary: units on the overall lines, p-values with two digits or "< 1e-12".
+expect_status 0 "diagnose" "$AGVCAL" diagnose $robot $log --quiet --report "$TMP/report"
+python3 - "$TMP/report/summary.txt" <<'PY' && pass "summary.txt has units" || fail "summary.txt: $(cat "$TMP/report/summary.txt")"
+import re, sys
+text = open(sys.argv[1]).read()
+assert re.search(r"Overall held-out residual RMS: x [0-9.]+ mm -> [0-9.]+ mm, y [0-9.]+ mm -> [0-9.]+ mm, "
+                 r"yaw [0-9.e-]+ rad \([0-9.e-]+ deg\) -> [0-9.e-]+ rad", text), text
+assert re.search(r"translation [0-9.]+ mm -> [0-9.]+ mm, heading [0-9.e-]+ rad \(", text), text
+assert not re.search(r"p = 0\b|p = 0\.0+\b", text), text
+assert "+-" not in text, text
+PY
+
+# Summary lines of a found effect and of a candidate the recording cannot identify.
+cat >"$TMP/slip.yaml" <<SIM
+robot: $SRC/config/robots/diff_robot.yaml
+effects:
+  longitudinal_slip: {slip_per_accel: 0.02}
+SIM
+"$AGVCAL" simulate "$TMP/slip.yaml" "$TMP/slip.log" --trajectory demo 2>"$TMP/progress"
+if ! grep -q $'\r' "$TMP/progress" && grep -q "^simulated [0-9.]* s, [0-9]* messages" "$TMP/progress"; then
+  pass "simulate: progress into a file as lines, no carriage returns"
+else fail "simulate's progress: $(od -c "$TMP/progress" | head -5)"; fi
+expect_status 0 "diagnose (slip)" "$AGVCAL" diagnose config/robots/diff_robot.yaml "$TMP/slip.log" --quiet
+python3 - "$TMP/stdout" <<'PY' && pass "effect size in s²/m, p-value readable, detectable size with a unit" || fail "slip summary: $(cat "$TMP/stdout")"
+import re, sys
+text = open(sys.argv[1]).read()
+assert re.search(r"slip_per_accel = [0-9.]+ ± [0-9.]+ s²/m", text), text
+assert re.search(r"evidence: p (< 1e-12|= [0-9.e-]+) after", text), text
+for m in re.finditer(r"could only detect it above (\S+) (\S+)", text):
+    assert m.group(2).rstrip(";") in ("s", "s²/m", "rad", "rad/s", "(relative)"), m.group(0)
+assert not re.search(r"could only detect it above [0-9.e-]+;", text), "a detectable size without unit"
+PY
+
+# Paths checked before the analysis: exit 2 at once, naming the path, no progress printed.
+touch "$TMP/a_file"
+expect_status 2 "--report at an existing file" "$AGVCAL" diagnose $robot $log --report "$TMP/a_file"
+stderr_has "$TMP/a_file"
+if ! grep -q "baseline calibration\|matching" "$TMP/stderr"; then pass "refused before the analysis"; else fail "analysis ran first: $(head -c 300 "$TMP/stderr")"; fi
+expect_status 2 "--report below a file" "$AGVCAL" diagnose $robot $log --report "$TMP/a_file/report" --quiet
+stderr_has "$TMP/a_file/report"
+expect_status 2 "--out in a missing folder" "$AGVCAL" solve $robot $log --out "$TMP/none/r.json" --quiet
+stderr_has "$TMP/none/r.json"
+
+# A reused report folder: the last run's figures are gone, other files stay.
+echo '<svg/>' >"$TMP/report/signature_9_stale.svg"
+echo 'mine' >"$TMP/report/notes.md"
+expect_status 0 "diagnose into a used report folder" "$AGVCAL" diagnose $robot $log --quiet --report "$TMP/report"
+if [ ! -e "$TMP/report/signature_9_stale.svg" ] && [ -e "$TMP/report/notes.md" ] && [ -e "$TMP/report/residual_time.svg" ]; then
+  pass "stale figure removed, the user's file kept"
+else fail "report folder: $(ls "$TMP/report")"; fi
+
+# A straight-only recording: diagnose refuses like solve (exit 3), naming what and the motion.
+"$AGVCAL" simulate config/sims/diff_robot.yaml "$TMP/straight.log" --trajectory straight --quiet
+expect_status 3 "diagnose on a straight-only recording" \
+  "$AGVCAL" diagnose config/robots/diff_robot.yaml "$TMP/straight.log" --quiet --out "$TMP/no.json"
+stderr_has "track"
+stderr_has "cannot be made"
+if [ ! -e "$TMP/no.json" ]; then pass "no REPORT.json on exit 3"; else fail "REPORT.json written on exit 3"; fi
+finish
