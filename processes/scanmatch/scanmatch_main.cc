@@ -50,7 +50,6 @@ int Run(int argc, char** argv) {
   InstallStopHandlers();
   std::cerr << "agvcal-scanmatch: " << robot.name << ", matching " << robot.lidar2d->channel
             << " with WHEELS, publishing " << calib::kScanMatchChannel << "\n";
-  if (args.Has("--catch-up")) bus.CatchUp(args.Get("--catch-up", ""), &heartbeat);
 
   auto publish = [&]() {
     for (const calib::SensorMotion& motion : pipeline.TakeResults()) {
@@ -60,13 +59,24 @@ int Run(int argc, char** argv) {
   };
   auto state = [&](const char* what) {
     const calib::ScanMatchCounts& c = pipeline.counts();
+    const std::string clocks = pipeline.clock_problem().empty() ? "" : "; " + pipeline.clock_problem();
     return std::string(what) + ": " + std::to_string(c.matches) + " matches (" +
            std::to_string(c.invalid) + " failed, " + std::to_string(c.degenerate) +
-           " degenerate), " + std::to_string(c.scans_dropped + c.wheels_dropped) + " out of order";
+           " degenerate), " + std::to_string(c.scans_dropped + c.wheels_dropped) + " out of order" + clocks;
   };
+  // Two clock domains (issue 17 item 8) are said once, when the streams first meet.
+  bool clocks_said = false;
+  auto check_clocks = [&]() {
+    if (clocks_said || pipeline.clock_problem().empty()) return;
+    clocks_said = true;
+    std::cerr << "agvcal-scanmatch: " << pipeline.clock_problem() << "\n";
+  };
+  if (args.Has("--catch-up")) bus.CatchUp(args.Get("--catch-up", ""), &heartbeat);
+  check_clocks();
 
   while (!bus.done()) {
     bus.HandleNext(100);
+    check_clocks();
     publish();
     heartbeat.Beat(state("running"));
   }
