@@ -7,19 +7,7 @@
 source "$(dirname "$0")/lib.bash" "$@"
 robot=config/robots/forklift.yaml
 log=logs/forklift_demo.log
-python3 - $log "$TMP/clocks.log" <<'PY'
-import struct, sys
-data = bytearray(open(sys.argv[1], 'rb').read())
-pos = 0
-while pos + 28 <= len(data):
-    _, _, _, channel_len, data_len = struct.unpack('>IqqII', data[pos:pos + 28])
-    start = pos + 28 + channel_len
-    if data[pos + 28:start] == b'SCAN':
-        (utime,) = struct.unpack_from('>q', data, start + 8)   # after the 8-byte type hash
-        struct.pack_into('>q', data, start + 8, utime + 3600 * 1000000)
-    pos = start + data_len
-open(sys.argv[2], 'wb').write(data)
-PY
+python3 tests/tools/corrupt_log.py $log "$TMP/clocks.log" SCAN all 8 +3600000000
 scripts/netns-run scripts/agvcal-group --replay "$TMP/clocks.log" --robot "$robot" --speed 2 \
   --run-dir "$TMP/clocks" >"$TMP/clocks.out" 2>&1; code=$?
 [ "$code" -ne 0 ] && pass "no motion, no result: the group exits non-zero ($code)" || fail "group exit 0"

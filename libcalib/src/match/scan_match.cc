@@ -599,7 +599,7 @@ void ScanMatchPipeline::CheckClocks(int64_t scan_utime, int64_t wheel_utime) {
   char text[320];
   std::snprintf(text, sizeof(text),
                 "scan and wheel stamps are %.0f s apart (scan at %.3f s, wheel state at %.3f s): two clock "
-                "domains in one group (e.g. one bridge stamping with a recording's clock, another with the "
+                "domains in one group or recording (e.g. one bridge stamping with a recording's clock, another with the "
                 "host's); no scan can be matched",
                 gap_s, scan_utime * 1e-6, wheel_utime * 1e-6);
   clock_problem_ = text;
