@@ -42,7 +42,6 @@ int Run(int argc, char** argv) {
   calib::ScanMatchPipeline pipeline(robot);  // throws InputError without a lidar2d
 
   BusSource bus(args.Get("--lcm-url", ""), "agvcal-scanmatch");
-  bus.DeliverOncePerStamp();  // a message is used once, whether live, recovered or both
   calib::SubscribeWheels(&bus, robot, [&](const calib::WheelSample& sample) { pipeline.AddWheels(sample); });
   calib::SubscribeScans(&bus, robot.lidar2d->channel, [&](calib::LaserScan scan) { pipeline.AddScan(scan); });
   Heartbeat heartbeat(&bus.lcm(), "scanmatch");
@@ -71,6 +70,7 @@ int Run(int argc, char** argv) {
     clocks_said = true;
     std::cerr << "agvcal-scanmatch: " << pipeline.clock_problem() << "\n";
   };
+  // Catching up also delivers each message once, by stamp, from then on (BusSource::CatchUp).
   if (args.Has("--catch-up")) bus.CatchUp(args.Get("--catch-up", ""), &heartbeat);
   check_clocks();
 
