@@ -4,6 +4,7 @@
 # ones cut from the bundled configs and the real datasets (AGVCAL_DATA_DIR, default ../shared/data).
 #   bench/fuzz/make_corpus.sh [FUZZ_BUILD_DIR]     (default build-fuzz; bench/fuzz/run.sh makes it)
 set -eu  # no pipefail: zcat | head ends zcat early
+case "${1:-}" in -h|--help) sed -n '2,5p' "$0" | sed 's/^# \{0,1\}//'; exit 0 ;; esac
 here=$(cd "$(dirname "$0")/../.." && pwd)
 build=${1:-$here/build-fuzz}
 data=${AGVCAL_DATA_DIR:-$here/../shared/data}

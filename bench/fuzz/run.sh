@@ -1,7 +1,7 @@
 #!/usr/bin/env bash
 # Runs the libFuzzer targets (bench/fuzz/*_fuzz.cc, docs/bad-input.md) under ASan and UBSan,
 # each for SECONDS, and prints per target the executions, their rate and the crashes found.
-#   bench/fuzz/run.sh TARGET|all SECONDS [--jobs N]
+#   bench/fuzz/run.sh TARGET|all SECONDS
 #   bench/fuzz/run.sh --ci          all targets for 4 s each on the committed corpus (ctest fuzz_smoke)
 # Builds build-fuzz/ first (clang++, -DAGVCAL_FUZZ=ON; AGVCAL_FUZZ_BUILD overrides the directory).
 # New inputs go to build-fuzz/corpus/TARGET (the committed bench/fuzz/corpus/TARGET is only read),
@@ -11,7 +11,7 @@ here=$(cd "$(dirname "$0")/../.." && pwd)
 build=${AGVCAL_FUZZ_BUILD:-$here/build-fuzz}
 targets_all=(recording messages robot_file sim_config pcd kitti carmen mines lego optiodom pose_csv
              candump sick_cola bridge_config)
-usage() { sed -n '2,9p' "$0" | sed 's/^# \{0,1\}//'; }
+usage() { sed -n '2,8p' "$0" | sed 's/^# \{0,1\}//'; }
 ci=0
 case "${1:-}" in
   -h|--help) usage; exit 0 ;;
