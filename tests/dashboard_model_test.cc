@@ -136,6 +136,54 @@ TEST(DashboardModel, ProcessHealthAndRestarts) {
   EXPECT_EQ(p[1].state, "running");
 }
 
+// Left running across two groups (issue 17 item 11): the second run's processes are not the
+// first's restarts, and the first run's values are gone; hostile strings lose their control
+// characters.
+TEST(DashboardModel, NewRunStartsAfresh) {
+  DashboardModel model;
+  agvcal::heartbeat_t beat{};
+  beat.process = "solver";
+  beat.pid = 100;
+  beat.state = "running";
+  model.OnHeartbeat(beat, 0);
+  agvcal::calib_estimate_t estimate{};
+  estimate.utime = 50 * kSecond;
+  estimate.num_values = 1;
+  estimate.names = {"drive_radius"};
+  estimate.values = {0.1};
+  estimate.stds = {0.01};
+  estimate.nominal = {0.1};
+  estimate.intervals = 400;
+  model.OnEstimate(estimate, kSecond);
+  beat.state = "stopped";
+  model.OnHeartbeat(beat, 2 * kSecond);
+  // The next group, 1 s later: a new pid after "stopped".
+  beat.pid = 300;
+  beat.state = "running";
+  model.OnHeartbeat(beat, 3 * kSecond);
+  EXPECT_EQ(model.runs(), 2);
+  std::vector<ProcessView> p = model.Processes(3 * kSecond);
+  ASSERT_EQ(p.size(), 1u);
+  EXPECT_EQ(p[0].restarts, 0);
+  EXPECT_FALSE(model.Estimate(3 * kSecond).any);
+  EXPECT_TRUE(model.Parameters().empty());
+  // Within a run a new pid is a restart; after every process went silent, a new run.
+  beat.pid = 301;
+  model.OnHeartbeat(beat, 4 * kSecond);
+  EXPECT_EQ(model.Processes(4 * kSecond)[0].restarts, 1);
+  beat.pid = 400;
+  model.OnHeartbeat(beat, 60 * kSecond);
+  EXPECT_EQ(model.runs(), 3);
+  EXPECT_EQ(model.Processes(60 * kSecond)[0].restarts, 0);
+  beat.process = "evil\x1b[2J\nname";
+  beat.state = "bad\tstate\r";
+  model.OnHeartbeat(beat, 60 * kSecond);
+  p = model.Processes(60 * kSecond);
+  ASSERT_EQ(p.size(), 2u);
+  EXPECT_EQ(p[0].name, "evil?[2J?name");
+  EXPECT_EQ(p[0].state, "bad?state?");
+}
+
 TEST(DashboardModel, ParameterHistoryAndConvergence) {
   DashboardModel model;  // converged: last 3 changes each below 0.5 sigma
   const std::vector<double> radius = {0.1150, 0.1160, 0.11630, 0.11631, 0.11632, 0.11631};

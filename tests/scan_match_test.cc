@@ -663,6 +663,34 @@ TEST(ScanMatchTest, UncoveredScansAndWheelGaps) {
   EXPECT_GE(invalid, 8);  // 0.4 s of 20 Hz scans
 }
 
+// Two clock domains (issue 17 item 8): scans stamped an hour after the wheels are said in
+// one sentence when the streams first meet; the clean recording, and one whose wheels start
+// 20 s after its scans (two streams of one clock), say nothing.
+TEST(ScanMatchTest, TwoClocksAreSaidAtOnce) {
+  const Recording rec = ReadSample("forklift_demo.log", "forklift.yaml");
+  auto problem = [&](const Recording& r, const std::vector<Recording::Event>& order) {
+    ScanMatchPipeline pipeline(r.robot, PerPair());
+    for (const auto& ev : order) {
+      if (ev.is_scan)
+        pipeline.AddScan(r.scans[ev.index]);
+      else
+        pipeline.AddWheels(r.wheels[ev.index]);
+      if (!pipeline.clock_problem().empty()) return pipeline.clock_problem();
+    }
+    return pipeline.clock_problem();
+  };
+  EXPECT_EQ(problem(rec, rec.order), "");
+  std::vector<Recording::Event> late_wheels;
+  for (const auto& ev : rec.order)
+    if (ev.is_scan || rec.wheels[ev.index].utime > rec.wheels.front().utime + 20000000) late_wheels.push_back(ev);
+  EXPECT_EQ(problem(rec, late_wheels), "");
+  Recording shifted = rec;
+  for (auto& scan : shifted.scans) scan.utime += 3600000000LL;
+  const std::string said = problem(shifted, shifted.order);
+  EXPECT_NE(said.find("scan and wheel stamps are 3600 s apart"), std::string::npos) << said;
+  EXPECT_NE(said.find("two clock domains"), std::string::npos) << said;
+}
+
 // A slow encoder stream (3.3 Hz, like the 4 Hz of the Lego robot's recording) is the
 // recording's rate, not a dropout: no pair is refused for it, and the
 // matches stay close to those with 100 Hz encoders.

@@ -41,6 +41,17 @@ std::string Clip(const std::string& s, int cells) {
   return s;
 }
 
+// At most `cells` cells of `s`, cut at a word boundary with "..." when it is longer (a single
+// word longer than that is cut).
+std::string ClipWords(const std::string& s, int cells) {
+  if (Cells(s) <= cells) return s;
+  if (cells <= 3) return Clip(s, cells);
+  std::string head = Clip(s, cells - 3);
+  const std::size_t space = head.rfind(' ');
+  if (space != std::string::npos && space > 0) head.resize(space);
+  return head + "...";
+}
+
 std::string Format(const char* format, ...) {
   char buffer[512];
   va_list args;
@@ -152,7 +163,7 @@ int DrawParameterTable(const calib::DashboardModel& model, int y, Glyphs glyphs,
   const int spark_x = 48, spark_w = std::max(0, COLS - spark_x - 11);
   for (std::size_t i = 0; i < params.size() && static_cast<int>(i) + 1 < max_rows; ++i, ++y) {
     const calib::ParameterView& p = params[i];
-    Put(y, 0, Format("%-14s %10s %10s %10.4f", p.name.c_str(), Value(p.value).c_str(),
+    Put(y, 0, Format("%-14s %10s %10s %10.4f", Clip(p.name, 14).c_str(), Value(p.value).c_str(),
                      Sigma(p.std).c_str(), p.nominal));
     Put(y, spark_x, calib::Sparkline(p.values, spark_w, glyphs));
     if (p.converged)
@@ -187,7 +198,9 @@ void DrawOverview(const calib::DashboardModel& model, int64_t now_us, const View
       const calib::ResidualStats s = model.Stats(k);
       head += Format("  %s %.3g %s", kComponentNames[k], s.rms * kComponentScale[k], kComponentUnits[k]);
     }
-    head += Format("  (%d, %d outliers)", model.Stats(0).count, model.Stats(0).outliers);
+    // Not the header's counts (the last solve's intervals and outliers): each interval's residual
+    // is sent once, with the outlier flag of the solve that sent it.
+    head += Format("  (%d received, %d outliers when sent)", model.Stats(0).count, model.Stats(0).outliers);
     Put(y++, 0, head, kPlain, true);
     for (int k = 0; k < 3; ++k, ++y) {
       const double range = DrawResidualPlot(model, k, y, 18, COLS - 18, 1, state.glyphs);
@@ -204,7 +217,7 @@ void DrawOverview(const calib::DashboardModel& model, int64_t now_us, const View
       const calib::ChannelView& c = channels[i];
       const int x = static_cast<int>(i % per_row) * 26;
       const double hz = c.data_rate_hz > 0 ? c.data_rate_hz : c.rate_hz;
-      Put(y, x, Format("%-16s", c.name.c_str()));
+      Put(y, x, Format("%-16s", Clip(c.name, 16).c_str()));
       Put(y, x + 17, c.stale ? std::string("STALE") : Format("%7.1f", hz), c.stale ? kBad : kGood);
       if (i % per_row == static_cast<std::size_t>(per_row - 1) || i + 1 == channels.size()) ++y;
     }
@@ -283,7 +296,7 @@ void DrawParameters(const calib::DashboardModel& model, int64_t now_us, const Vi
   const int spark_w = two_rows ? std::max(0, (COLS - 24) / 2) : std::max(0, COLS - 62);
   for (const calib::ParameterView& p : params) {
     if (RowsLeft(y) < 1) break;
-    std::string line = Format("%-14s %10s +- %s  nominal %.4f", p.name.c_str(), Value(p.value).c_str(),
+    std::string line = Format("%-14s %10s +- %s  nominal %.4f", Clip(p.name, 14).c_str(), Value(p.value).c_str(),
                               Sigma(p.std).c_str(), p.nominal);
     Put(y, 0, line, kPlain, true);
     const std::string conv = p.converged ? "converged"
@@ -312,7 +325,8 @@ void DrawBus(const calib::DashboardModel& model, int64_t now_us) {
   for (const calib::ChannelView& c : channels) {
     if (RowsLeft(y) <= std::min(reserve, RowsLeft(y) - 1)) break;
     const std::string data_hz = c.data_rate_hz > 0 ? Format("%8.1f", c.data_rate_hz) : "       -";
-    Put(y, 0, Format("%-18s %-18s %7lld %8.1f %s %7s", c.name.c_str(), c.type.empty() ? "?" : c.type.c_str(),
+    Put(y, 0, Format("%-18s %-18s %7lld %8.1f %s %7s", Clip(c.name, 18).c_str(),
+                     c.type.empty() ? "?" : Clip(c.type, 18).c_str(),
                      static_cast<long long>(c.count), c.rate_hz, data_hz.c_str(), Age(c.age_s).c_str()));
     std::string state = c.stale ? "STALE" : "ok";
     if (c.undecodable) state += Format(" %lld bad", static_cast<long long>(c.undecodable));
@@ -326,7 +340,7 @@ void DrawBus(const calib::DashboardModel& model, int64_t now_us) {
   }
   for (const calib::ProcessView& p : processes) {
     if (RowsLeft(y) < 2) break;
-    Put(y, 0, Format("%-14s %6d  %-30s %7s %9d", p.name.c_str(), p.pid, Clip(p.state, 30).c_str(),
+    Put(y, 0, Format("%-14s %6d  %-30s %7s %9d", Clip(p.name, 14).c_str(), p.pid, ClipWords(p.state, 30).c_str(),
                      Age(p.age_s).c_str(), p.restarts));
     Put(y++, 72, p.stale ? "STALE" : "ok", p.stale ? kBad : kGood);
   }

@@ -16,7 +16,7 @@
 
 namespace {
 
-const char* kUsage = R"(usage: agvcal-scanmatch ROBOT.yaml [--lcm-url URL]
+const char* kUsage = R"(usage: agvcal-scanmatch ROBOT.yaml [--catch-up RECORDING] [--lcm-url URL]
 
 Matches consecutive 2D lidar scans (the lidar2d channel of ROBOT.yaml, SCAN by
 default), de-skewed with the WHEELS odometry of the robot file's nominal
@@ -24,6 +24,11 @@ model, and publishes the lidar's motion between them with its covariance on
 SCAN_MATCH (agvcal::scan_match_t), plus HEARTBEAT. A match is published once
 the wheel data cover both scans. SIGINT/SIGTERM: matches what it can of the
 data received, publishes it, and exits.
+  --catch-up RECORDING  on start, first read the WHEELS and scans published so far
+                 from the group's recording (lcm-logger's file, still being written),
+                 then continue live; each message is used once (by stamp), so a
+                 restarted matcher matches the same scan pairs as an uninterrupted
+                 one (the matches it publishes again are dropped by the solver)
   --lcm-url URL  LCM provider (default: $LCM_DEFAULT_URL or LCM's default)
 Exit status: 0 stopped cleanly, 2 bad robot file (or no lidar2d) or bus,
 1 internal error.
@@ -31,7 +36,7 @@ Exit status: 0 stopped cleanly, 2 bad robot file (or no lidar2d) or bus,
 
 int Run(int argc, char** argv) {
   using namespace agvcal_process;
-  const Args args = ParseArgs(argc, argv, 1, {"--lcm-url"}, {});
+  const Args args = ParseArgs(argc, argv, 1, {"--catch-up", "--lcm-url"}, {});
   if (const auto status = CheckUsage(args, kUsage, 1)) return *status;
   const calib::RobotDescription robot = calib::LoadRobotFile(args.positional[0]);
   calib::ScanMatchPipeline pipeline(robot);  // throws InputError without a lidar2d
@@ -53,13 +58,25 @@ int Run(int argc, char** argv) {
   };
   auto state = [&](const char* what) {
     const calib::ScanMatchCounts& c = pipeline.counts();
+    const std::string clocks = pipeline.clock_problem().empty() ? "" : "; " + pipeline.clock_problem();
     return std::string(what) + ": " + std::to_string(c.matches) + " matches (" +
            std::to_string(c.invalid) + " failed, " + std::to_string(c.degenerate) +
-           " degenerate), " + std::to_string(c.scans_dropped + c.wheels_dropped) + " out of order";
+           " degenerate), " + std::to_string(c.scans_dropped + c.wheels_dropped) + " out of order" + clocks;
   };
+  // Two clock domains (issue 17 item 8) are said once, when the streams first meet.
+  bool clocks_said = false;
+  auto check_clocks = [&]() {
+    if (clocks_said || pipeline.clock_problem().empty()) return;
+    clocks_said = true;
+    std::cerr << "agvcal-scanmatch: " << pipeline.clock_problem() << "\n";
+  };
+  // Catching up also delivers each message once, by stamp, from then on (BusSource::CatchUp).
+  if (args.Has("--catch-up")) bus.CatchUp(args.Get("--catch-up", ""), &heartbeat);
+  check_clocks();
 
   while (!bus.done()) {
     bus.HandleNext(100);
+    check_clocks();
     publish();
     heartbeat.Beat(state("running"));
   }

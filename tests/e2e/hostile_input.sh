@@ -63,4 +63,9 @@ PY
 expect_status 3 "diagnose: a short clean dual-steer recording" "$AGVCAL" diagnose config/robots/dual_steer_agv.yaml "$TMP/short.log" --quiet
 stderr_has "short.log"; stderr_has "usable intervals"; stderr_has "needs at least 40"
 
+# Two clocks in one recording (issue 17 item 8): every SCAN stamped an hour after the wheels.
+python3 tests/tools/corrupt_log.py $log "$TMP/clocks.log" SCAN all 8 +3600000000
+expect_status 2 "solve: scans on another clock than the wheels" "$AGVCAL" solve $robot "$TMP/clocks.log" --quiet
+stderr_has "clocks.log: scan and wheel stamps are 3600 s apart"; stderr_has "two clock domains"
+
 finish

@@ -84,6 +84,9 @@ void ReadCalibrationStream(const RobotDescription& robot, const std::string& log
                std::to_string(c.wheel_gaps) + " over encoder gaps; " + std::to_string(c.degenerate) +
                " degenerate)");
     }
+    // Two clock domains in one recording: said as the cause, not as too little data.
+    if (!matcher->clock_problem().empty() && matcher->counts().matches == 0)
+      throw InputError(log_path, "", matcher->clock_problem());
   }
 }
 

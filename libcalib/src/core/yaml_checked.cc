@@ -8,6 +8,8 @@
 #include <fstream>
 #include <sstream>
 
+#include <yaml-cpp/eventhandler.h>
+
 #include "calib/core/errors.h"
 
 namespace calib {
@@ -154,20 +156,47 @@ double NumberOr(const Reporter& reporter, const CheckedMap& map, const std::stri
   return field ? ReadNumber(reporter, *field) : fallback;
 }
 
+namespace {
+// Where the documents of a text start, without building them.
+class DocumentStarts : public YAML::EventHandler {
+ public:
+  std::vector<YAML::Mark> marks;
+  void OnDocumentStart(const YAML::Mark& mark) override { marks.push_back(mark); }
+  void OnDocumentEnd() override {}
+  void OnNull(const YAML::Mark&, YAML::anchor_t) override {}
+  void OnAlias(const YAML::Mark&, YAML::anchor_t) override {}
+  void OnScalar(const YAML::Mark&, const std::string&, YAML::anchor_t, const std::string&) override {}
+  void OnSequenceStart(const YAML::Mark&, const std::string&, YAML::anchor_t, YAML::EmitterStyle::value) override {}
+  void OnSequenceEnd() override {}
+  void OnMapStart(const YAML::Mark&, const std::string&, YAML::anchor_t, YAML::EmitterStyle::value) override {}
+  void OnMapEnd() override {}
+};
+}  // namespace
+
 Field ParseSingleDocument(const Reporter& reporter, const std::string& text, const std::string& what) {
-  std::vector<YAML::Node> documents;
+  // Not YAML::LoadAll: yaml-cpp 0.7 (Debian 12) never consumes a ',' at block level and
+  // LoadAll then makes empty documents until memory runs out (found by bench/fuzz). At most
+  // two documents are parsed here, and a second that starts where the first did is that case.
+  YAML::Node root;
   try {
-    documents = YAML::LoadAll(text);
+    std::istringstream stream(text);
+    YAML::Parser parser(stream);
+    DocumentStarts starts;
+    while (starts.marks.size() < 2 && parser.HandleNextDocument(starts)) {
+    }
+    if (starts.marks.size() > 1) {
+      const YAML::Mark& second = starts.marks[1];
+      if (second.pos == starts.marks[0].pos)
+        reporter.Fail(LineOf(second), "", "YAML syntax error: a ',' outside a [ ] or { } collection");
+      reporter.Fail(LineOf(second), "", "more than one YAML document in a " + what);
+    }
+    root = YAML::Load(text);
   } catch (const YAML::ParserException& e) {
     reporter.Fail(LineOf(e.mark), "", "YAML syntax error: " + e.msg);
   } catch (const YAML::Exception& e) {
     reporter.Fail(LineOf(e.mark), "", std::string("YAML error: ") + e.what());
   }
-  if (documents.empty() || (documents.size() == 1 && documents[0].IsNull()))
-    reporter.Fail(0, "", "empty " + what);
-  if (documents.size() > 1)
-    reporter.Fail(LineOf(documents[1].Mark()), "", "more than one YAML document in a " + what);
-  const YAML::Node& root = documents[0];
+  if (root.IsNull()) reporter.Fail(0, "", "empty " + what);
   const int root_line = std::max(1, LineOf(root.Mark()));
   if (!root.IsMap()) reporter.Fail(root_line, "", "the top level must be a map of keys (" + what + "), got " + Describe(root));
   return Field{"", root_line, root};

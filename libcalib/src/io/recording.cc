@@ -3,6 +3,8 @@
 #include <cerrno>
 #include <cstring>
 
+#include <sys/stat.h>
+
 #include "calib/core/errors.h"
 
 namespace calib {
@@ -60,6 +62,18 @@ bool LogReader::Read(LogEvent* event, bool incomplete_tail_is_end) {
     throw InputError(path_, place, "implausible channel name length " + std::to_string(channel_length));
   if (data_length < 0 || data_length > kMaxDataLength)
     throw InputError(path_, place, "implausible message length " + std::to_string(data_length));
+  // Nothing is allocated for bytes the file does not hold (a corrupt length of up to 256 MiB
+  // would otherwise be zero-filled first): such an event is truncated, or the growing tail.
+  struct stat info {};
+  const uint64_t body_at = offset_ + sizeof(header);
+  if (fstat(fileno(file_), &info) != 0 ||
+      static_cast<uint64_t>(info.st_size) < body_at + uint64_t(channel_length) + uint64_t(data_length)) {
+    if (incomplete_tail_is_end) return tail();
+    throw InputError(path_, place, "truncated event (log cut short): its header says " +
+                                       std::to_string(int64_t(channel_length) + data_length) +
+                                       " bytes follow, the file holds " +
+                                       std::to_string(info.st_size > int64_t(body_at) ? info.st_size - body_at : 0));
+  }
   event->channel.resize(channel_length);
   event->data.resize(data_length);
   if (std::fread(event->channel.data(), 1, channel_length, file_) != size_t(channel_length) ||

@@ -10,6 +10,14 @@ namespace {
 
 double Seconds(int64_t us) { return us * 1e-6; }
 
+// Text from the bus as the terminal may show it: control characters (escape sequences, line
+// breaks, tabs) become '?', so a hostile string cannot move the cursor or break a row.
+std::string Printable(std::string text) {
+  for (char& c : text)
+    if (static_cast<unsigned char>(c) < 0x20 || c == 0x7f) c = '?';
+  return text;
+}
+
 // Arrivals per second over a window's timestamps (first to last); over less than a
 // second of arrivals (a start, a burst of residuals) their count in that second.
 double Rate(const std::deque<int64_t>& stamps) {
@@ -42,7 +50,7 @@ bool DashboardModel::Stale(int64_t last_arrival, int64_t now_us) const {
 
 void DashboardModel::OnMessage(const std::string& channel, const std::string& type, bool decoded,
                                std::optional<int64_t> utime, int64_t now_us) {
-  Channel& c = channels_[channel];
+  Channel& c = channels_[Printable(channel)];
   c.type = type;
   ++c.count;
   if (!decoded) ++c.undecodable;
@@ -57,15 +65,52 @@ void DashboardModel::OnMessage(const std::string& channel, const std::string& ty
 }
 
 void DashboardModel::OnHeartbeat(const agvcal::heartbeat_t& beat, int64_t now_us) {
-  const bool known = processes_.count(beat.process) > 0;
-  Process& p = processes_[beat.process];
+  // A new run (the dashboard left running across two groups): a beat after every known process
+  // went stale, or a new pid of a process whose last beat said it had stopped, starts afresh,
+  // so the old run's values go and the new pids are not counted as restarts.
+  if (!processes_.empty()) {
+    bool all_stale = true;
+    for (const auto& [name, known] : processes_) all_stale = all_stale && Stale(known.last_arrival, now_us);
+    const auto same = processes_.find(Printable(beat.process));
+    const bool after_stop = same != processes_.end() && same->second.pid != beat.pid &&
+                            same->second.state.rfind("stopped", 0) == 0;
+    if (all_stale || after_stop) NewRun();
+  }
+  const std::string name = Printable(beat.process);
+  const bool known = processes_.count(name) > 0;
+  Process& p = processes_[name];
   if (known && p.pid != beat.pid) ++p.restarts;
   p.pid = beat.pid;
-  p.state = beat.state;
+  p.state = Printable(beat.state);
   p.last_arrival = now_us;
 }
 
-void DashboardModel::OnEstimate(const agvcal::calib_estimate_t& estimate, int64_t now_us) {
+void DashboardModel::NewRun() {
+  channels_.clear();
+  processes_.clear();
+  parameter_order_.clear();
+  parameters_.clear();
+  estimate_.reset();
+  estimates_ = 0;
+  residuals_.clear();
+  commander_.reset();
+  ++runs_;
+}
+
+void DashboardModel::OnEstimate(const agvcal::calib_estimate_t& raw, int64_t now_us) {
+  agvcal::calib_estimate_t estimate = raw;
+  estimate.drive = Printable(estimate.drive);
+  estimate.status = Printable(estimate.status);
+  estimate.message = Printable(estimate.message);
+  for (std::string& name : estimate.names) name = Printable(name);
+  for (std::string& weak : estimate.weak) weak = Printable(weak);
+  // The robot clock going back: another run's solver (a replay started again).
+  if (estimate_ && estimate.utime < estimate_->utime) {
+    parameter_order_.clear();
+    parameters_.clear();
+    estimates_ = 0;
+    residuals_.clear();
+  }
   estimate_ = estimate;
   ++estimates_;
   estimate_arrival_ = now_us;
@@ -98,6 +143,9 @@ void DashboardModel::OnResidual(const agvcal::calib_residual_t& residual) {
 
 void DashboardModel::OnCommanderStatus(const agvcal::commander_status_t& status, int64_t now_us) {
   commander_ = status;
+  commander_->trajectory = Printable(commander_->trajectory);
+  commander_->segment_name = Printable(commander_->segment_name);
+  commander_->state = Printable(commander_->state);
   commander_arrival_ = now_us;
 }
 

@@ -2,6 +2,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <cstdio>
 #include <limits>
 #include <stdexcept>
 #include <utility>
@@ -564,6 +565,7 @@ void ScanMatchPipeline::AddWheels(const WheelSample& sample) {
     return;
   }
   ++counts_.wheels;
+  if (have_scan_) CheckClocks(last_scan_utime_, sample.utime);
   if (had_samples) {
     recent_intervals_.push_back(sample.utime - previous_utime);
     if (recent_intervals_.size() > 15) recent_intervals_.pop_front();
@@ -580,12 +582,27 @@ void ScanMatchPipeline::AddScan(const LaserScan& scan) {
   have_scan_ = true;
   last_scan_utime_ = scan.utime;
   ++counts_.scans;
+  if (!track_.samples().empty()) CheckClocks(scan.utime, track_.samples().back().utime);
   pending_.push_back(scan);
   if (static_cast<int>(pending_.size()) > std::max(options_.max_pending_scans, 1)) {
     pending_.pop_front();
     ++counts_.scans_uncovered;
   }
   Process();
+}
+
+void ScanMatchPipeline::CheckClocks(int64_t scan_utime, int64_t wheel_utime) {
+  if (clocks_checked_) return;
+  clocks_checked_ = true;
+  const double gap_s = std::abs(static_cast<double>(scan_utime - wheel_utime)) * 1e-6;
+  if (gap_s <= kClockDomainGapS) return;
+  char text[320];
+  std::snprintf(text, sizeof(text),
+                "scan and wheel stamps are %.0f s apart (scan at %.3f s, wheel state at %.3f s): two clock "
+                "domains in one group or recording (e.g. one bridge stamping with a recording's clock, another with the "
+                "host's); no scan can be matched",
+                gap_s, scan_utime * 1e-6, wheel_utime * 1e-6);
+  clock_problem_ = text;
 }
 
 void ScanMatchPipeline::Finish() {

@@ -14,6 +14,8 @@
 //  - the solver's residuals (CALIB_RESIDUALS) per component, for a time plot
 //    and a histogram;
 //  - the commander's state (COMMANDER_STATUS).
+// Text from the bus has its control characters replaced by '?'. A new run (every process
+// silent, or one that said "stopped" back with a new pid) clears everything.
 // Nothing here reads the clock.
 
 #include <array>
@@ -142,6 +144,8 @@ class DashboardModel {
   Histogram ResidualHistogram(int component, int bins, double range = 0) const;
 
   const DashboardOptions& options() const { return options_; }
+  // Runs seen: 1, and one more each time a new run began (OnHeartbeat); all is forgotten then.
+  int runs() const { return runs_; }
 
  private:
   struct Channel {
@@ -163,6 +167,7 @@ class DashboardModel {
   };
 
   bool Stale(int64_t last_arrival, int64_t now_us) const;
+  void NewRun();
 
   DashboardOptions options_;
   std::map<std::string, Channel> channels_;
@@ -175,6 +180,7 @@ class DashboardModel {
   std::deque<ResidualPoint> residuals_;
   std::optional<agvcal::commander_status_t> commander_;
   int64_t commander_arrival_ = 0;
+  int runs_ = 1;
 };
 
 }  // namespace calib

@@ -203,8 +203,15 @@ class ScanMatchPipeline {
 
   const ScanMatchCounts& counts() const { return counts_; }
   const ScanMatchOptions& options() const { return options_; }
+  // Two clocks in one group: when the streams first meet (the first scan after a wheel sample
+  // or the reverse), the scan's and the latest wheel sample's stamps are more than
+  // kClockDomainGapS apart, e.g. wheels stamped on a recording's clock and scans on the host's.
+  // No scan can then be covered by wheel data. One sentence saying so, else "".
+  static constexpr double kClockDomainGapS = 10.0;
+  const std::string& clock_problem() const { return clock_problem_; }
 
  private:
+  void CheckClocks(int64_t scan_utime, int64_t wheel_utime);
   void Process(bool finishing = false);
   void ReleaseOldWheels();
 
@@ -219,6 +226,8 @@ class ScanMatchPipeline {
   std::optional<PreparedScan> reference_;
   bool have_scan_ = false;
   int64_t last_scan_utime_ = 0;
+  bool clocks_checked_ = false;
+  std::string clock_problem_;
   std::vector<SensorMotion> results_;
   ScanMatchCounts counts_;
 };
