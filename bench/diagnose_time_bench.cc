@@ -5,8 +5,8 @@
 //
 // For each simulation config (default: config/sims/diff_robot.yaml, forklift.yaml,
 // dual_steer_agv.yaml) and each length, simulates the default trajectory again and again (each
-// run from its own start, seed + 1, 10 s apart on the robot clock, as agvcal-bench-solve) until
-// the recording is at least that long, writes it to /tmp, then runs
+// run from its own start, seed + 1, 10 s apart on the robot clock, as agvcal-bench-solve), the
+// last run cut at the length (OfflineRunOptions::max_duration_s), writes it to /tmp, then runs
 // `PATH diagnose ROBOT LOG --out /tmp/...json` once and prints its wall time and the CPU time of
 // the child (user + system, both cores' worth when it uses two). PATH defaults to this build's
 // agvcal.
@@ -37,8 +37,10 @@ double ChildCpuSeconds() {
 double WriteRecording(calib::SimConfig config, double seconds, const std::string& path) {
   calib::LogWriter writer(path);
   double simulated = 0.0;
-  while (simulated < seconds) {
-    const calib::OfflineRunSummary s = calib::RunOffline(config, calib::OfflineRunOptions{}, &writer);
+  while (simulated < seconds - 1.0) {
+    calib::OfflineRunOptions run;
+    run.max_duration_s = seconds - simulated;  // the last run cut short
+    const calib::OfflineRunSummary s = calib::RunOffline(config, run, &writer);
     simulated += s.duration_s;
     config.start_utime += static_cast<int64_t>((s.duration_s + 10.0) * 1e6);
     config.seed += 1;

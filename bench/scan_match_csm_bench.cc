@@ -394,6 +394,13 @@ int Run(int argc, char** argv) {
     Print(csm, 0.0);
 #endif
     calib::ScanMatchOptions options;
+    if (getenv("FLOOR")) options.incidence_weight_floor = atof(getenv("FLOOR"));
+    if (getenv("RADIUS")) options.line_fit_radius_m = atof(getenv("RADIUS"));
+    if (getenv("BEAMS")) options.line_fit_beams = atof(getenv("BEAMS"));
+    if (getenv("MINPTS")) options.line_fit_min_points = atoi(getenv("MINPTS"));
+    if (getenv("TRIM")) options.trim_fraction = atof(getenv("TRIM"));
+    if (getenv("GATE")) options.residual_gate_sigmas = atof(getenv("GATE"));
+    if (getenv("FLAT")) options.line_max_flatness = atof(getenv("FLAT"));
     Print(RunAgvcal("agvcal symmetric", scans, pairs, options, passes), csm_rate);
     options.symmetric = false;
     Print(RunAgvcal("agvcal one-way", scans, pairs, options, passes), csm_rate);
