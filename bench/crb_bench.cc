@@ -7,26 +7,29 @@
 // each recording runs what `agvcal solve` runs (ReadCalibrationData: the scan matcher pipeline;
 // Calibrate) and compares every estimated value with the simulator's truth.
 //
-// The bound: the Fisher information of the interval model at the TRUE values with the matcher's
-// covariances, F = Σ_i J_iᵀ Σ_i⁻¹ J_i over the valid, non-degenerate intervals (J_i the derivative
-// of the predicted sensor motion, PredictSensorMotion with the true drive parameters and mount, by
-// central differences), averaged over the seeds; CRB = sqrt(diag(F⁻¹)). The matcher's
-// covariances are not exact: the mean of eᵀΣ⁻¹e / 3 at the truth (e: measured minus truly
-// predicted motion, the error the calibration sees) says by how much, and CRB·sqrt(that) is the
-// bound for errors of the matcher's covariance shape at their actual size.
+// The bound: the Fisher information of the interval model at the TRUE values, J̃ᵀ Ω⁻¹ J̃, with J̃
+// the intervals' Jacobians (PredictSensorMotion with the true drive parameters and mount, central
+// differences) whitened by the matcher's covariances, over the valid, non-degenerate intervals,
+// averaged over the seeds; CRB = sqrt(diag(F⁻¹)). Ω, the covariance of the whitened errors: as the
+// matcher reports them and independent (Ω = I: "CRB(Σ)"), and as measured at the truth (the
+// errors e = measured − truly predicted motion, pooled over the seeds: C0 per interval and C1
+// between neighbours, which share a scan; block tridiagonal: "CRB"). The second is the bound for
+// the errors the calibration actually sees.
 //
-// Prints per parameter: RMSE over the seeds, mean reported sigma, CRB (matcher covariance as
-// is), CRB scaled, RMSE/CRB, RMSE/CRB scaled, and reported sigma / RMSE.
+// Prints per parameter: RMSE over the seeds, bias, mean reported sigma, both bounds, RMSE/CRB and
+// reported sigma / RMSE.
 #include <cmath>
 #include <cstdio>
 #include <cstdlib>
 #include <iostream>
 #include <map>
 #include <memory>
+#include <stdexcept>
 #include <string>
 #include <vector>
 
 #include <Eigen/Dense>
+#include <Eigen/Sparse>
 
 #include "calib/calibrate/calibration.h"
 #include "calib/calibrate/recording_input.h"
@@ -74,24 +77,28 @@ Eigen::Vector3d Predict(const calib::RobotDescription& nominal, const std::vecto
   return {z.x, z.y, z.theta};
 }
 
-struct Information {
-  Eigen::MatrixXd fisher;
-  double chi2_sum = 0.0;  // eᵀΣ⁻¹e at the truth
-  int intervals = 0;
+// One recording's intervals at the truth, whitened by the matcher's covariance (U, UᵀU = Σ⁻¹):
+// the Jacobians U J and the errors U e (e = measured − truly predicted motion, the error the
+// calibration sees), and whether each interval starts where the previous ended (they share a scan).
+struct Whitened {
+  std::vector<Eigen::MatrixXd> jacobians;
+  std::vector<Eigen::Vector3d> errors;
+  std::vector<bool> follows_previous;
 };
 
-// The Fisher information at the truth with the matcher's covariances, and the residuals there.
-Information FisherAtTruth(const calib::RobotDescription& robot, const std::vector<std::string>& names,
-                          const std::vector<double>& truth, const calib::WheelTrack& wheels,
-                          const std::vector<calib::SensorMotion>& motions) {
+Whitened AtTruth(const calib::RobotDescription& robot, const std::vector<std::string>& names,
+                 const std::vector<double>& truth, const calib::WheelTrack& wheels,
+                 const std::vector<calib::SensorMotion>& motions) {
   const int p = static_cast<int>(names.size());
-  Information info;
-  info.fisher = Eigen::MatrixXd::Zero(p, p);
+  Whitened w;
+  int64_t previous_end = -1;
   for (const calib::SensorMotion& m : motions) {
     const double t0 = double(m.utime_start), t1 = double(m.utime_end);
     if (!m.valid || m.degenerate || !wheels.Covers(t0, t1)) continue;
     const Eigen::Matrix3d information = m.covariance.inverse();
-    if (!information.allFinite()) continue;
+    Eigen::LLT<Eigen::Matrix3d> llt(information);
+    if (!information.allFinite() || llt.info() != Eigen::Success) continue;
+    const Eigen::Matrix3d u = llt.matrixU();
     Eigen::MatrixXd jacobian(3, p);
     for (int k = 0; k < p; ++k) {
       const double h = 1e-6 * std::max(std::abs(truth[k]), 0.01);
@@ -102,14 +109,69 @@ Information FisherAtTruth(const calib::RobotDescription& robot, const std::vecto
       d[2] = calib::WrapAngle(d[2]);
       jacobian.col(k) = d / (2.0 * h);
     }
-    info.fisher += jacobian.transpose() * information * jacobian;
     Eigen::Vector3d e = Eigen::Vector3d(m.delta.x, m.delta.y, m.delta.theta) -
                         Predict(robot, names, truth, wheels, t0, t1);
     e[2] = calib::WrapAngle(e[2]);
-    info.chi2_sum += e.dot(information * e);
-    ++info.intervals;
+    w.jacobians.push_back(u * jacobian);
+    w.errors.push_back(u * e);
+    w.follows_previous.push_back(m.utime_start == previous_end);
+    previous_end = m.utime_end;
   }
-  return info;
+  return w;
+}
+
+// The noise model of the whitened errors: covariance C0 of one interval and C1 of an interval
+// with the one before it (a shared scan), pooled over every recording.
+struct NoiseModel {
+  Eigen::Matrix3d c0 = Eigen::Matrix3d::Zero(), c1 = Eigen::Matrix3d::Zero();
+};
+
+NoiseModel Pool(const std::vector<Whitened>& recordings) {
+  NoiseModel model;
+  int n = 0, pairs = 0;
+  for (const Whitened& w : recordings) {
+    for (std::size_t k = 0; k < w.errors.size(); ++k) {
+      model.c0 += w.errors[k] * w.errors[k].transpose();
+      ++n;
+      if (w.follows_previous[k]) {
+        model.c1 += w.errors[k] * w.errors[k - 1].transpose();
+        ++pairs;
+      }
+    }
+  }
+  model.c0 /= std::max(n, 1);
+  model.c1 /= std::max(pairs, 1);
+  return model;
+}
+
+// Fisher information J̃ᵀ Ω⁻¹ J̃ of one recording, Ω block tridiagonal (C0 on the diagonal, C1
+// between neighbours that share a scan); C1 shrunk until Ω is positive definite.
+Eigen::MatrixXd Fisher(const Whitened& w, const NoiseModel& noise) {
+  const int n = static_cast<int>(w.errors.size());
+  const int p = n > 0 ? static_cast<int>(w.jacobians[0].cols()) : 0;
+  Eigen::MatrixXd stacked(3 * n, p);
+  for (int k = 0; k < n; ++k) stacked.block(3 * k, 0, 3, p) = w.jacobians[k];
+  for (double shrink = 1.0; shrink >= 0.0; shrink -= 0.05) {
+    std::vector<Eigen::Triplet<double>> entries;
+    for (int k = 0; k < n; ++k) {
+      for (int i = 0; i < 3; ++i) {
+        for (int j = 0; j < 3; ++j) {
+          entries.emplace_back(3 * k + i, 3 * k + j, noise.c0(i, j));
+          if (k > 0 && w.follows_previous[k]) {
+            entries.emplace_back(3 * k + i, 3 * (k - 1) + j, shrink * noise.c1(i, j));
+            entries.emplace_back(3 * (k - 1) + j, 3 * k + i, shrink * noise.c1(i, j));
+          }
+        }
+      }
+    }
+    Eigen::SparseMatrix<double> omega(3 * n, 3 * n);
+    omega.setFromTriplets(entries.begin(), entries.end());
+    Eigen::SimplicialLDLT<Eigen::SparseMatrix<double>> ldlt(omega);
+    if (ldlt.info() != Eigen::Success || (ldlt.vectorD().array() <= 0.0).any()) continue;
+    const Eigen::MatrixXd solved = ldlt.solve(stacked);
+    return stacked.transpose() * solved;
+  }
+  throw std::runtime_error("no positive definite noise model");
 }
 
 void RunSim(const std::string& name, int seeds) {
@@ -117,10 +179,9 @@ void RunSim(const std::string& name, int seeds) {
   const std::vector<std::string> names = Names(base.robot);
   const std::vector<double> truth = TrueValues(base, names);
   const int p = static_cast<int>(names.size());
-  Eigen::MatrixXd fisher = Eigen::MatrixXd::Zero(p, p);
+  std::vector<Whitened> recordings;
   Eigen::VectorXd sum_e2 = Eigen::VectorXd::Zero(p), sum_std = Eigen::VectorXd::Zero(p), sum_e = sum_e2;
-  double chi2 = 0.0;
-  int intervals = 0, solved = 0, failed = 0;
+  int solved = 0, failed = 0;
   const std::string log = "/tmp/agvcal_bench_crb.log";
   for (int seed = 1; seed <= seeds; ++seed) {
     calib::SimConfig sim = base;
@@ -132,10 +193,7 @@ void RunSim(const std::string& name, int seeds) {
     }
     const calib::CalibrationData data =
         calib::ReadCalibrationData(sim.robot, log, calib::MotionSource::kLidar2d, nullptr);
-    const Information info = FisherAtTruth(sim.robot, names, truth, data.wheels(), data.motions());
-    fisher += info.fisher;
-    chi2 += info.chi2_sum;
-    intervals += info.intervals;
+    recordings.push_back(AtTruth(sim.robot, names, truth, data.wheels(), data.motions()));
     try {
       const calib::CalibrationResult r = calib::Calibrate(sim.robot, data.wheels(), data.motions(),
                                                           calib::MotionSource::kLidar2d, {}, log);
@@ -156,17 +214,33 @@ void RunSim(const std::string& name, int seeds) {
     }
   }
   std::remove(log.c_str());
-  fisher /= seeds;
-  const Eigen::VectorXd crb = fisher.inverse().diagonal().cwiseSqrt();
-  const double factor = intervals > 0 ? chi2 / (3.0 * intervals) : NAN;
-  std::printf("%s: %d seeds solved (%d failed), %.0f intervals per recording, eᵀΣ⁻¹e/3 at the truth %.2f\n",
-              name.c_str(), solved, failed, double(intervals) / seeds, factor);
-  std::printf("  %-14s %11s %11s %11s %11s %11s %9s %9s %11s\n", "parameter", "truth", "RMSE", "bias", "sigma",
-              "CRB", "RMSE/CRB", "RMSE/CRBs", "sigma/RMSE");
+  // Two bounds: the matcher's covariances as they are, intervals independent (Ω = I), and the
+  // noise model measured at the truth (C0, C1 pooled over the seeds).
+  const NoiseModel measured = Pool(recordings);
+  const NoiseModel independent{Eigen::Matrix3d::Identity(), Eigen::Matrix3d::Zero()};
+  Eigen::MatrixXd fisher_matcher = Eigen::MatrixXd::Zero(p, p), fisher_measured = fisher_matcher;
+  std::size_t intervals = 0;
+  for (const Whitened& w : recordings) {
+    fisher_matcher += Fisher(w, independent) / double(recordings.size());
+    fisher_measured += Fisher(w, measured) / double(recordings.size());
+    intervals += w.errors.size();
+  }
+  const Eigen::VectorXd crb_matcher = fisher_matcher.inverse().diagonal().cwiseSqrt();
+  const Eigen::VectorXd crb = fisher_measured.inverse().diagonal().cwiseSqrt();
+  const Eigen::Matrix3d c1_correlation =
+      measured.c0.diagonal().cwiseSqrt().cwiseInverse().asDiagonal() * measured.c1 *
+      measured.c0.diagonal().cwiseSqrt().cwiseInverse().asDiagonal();
+  std::printf("%s: %d seeds solved (%d failed), %.0f intervals per recording; whitened errors at the truth: "
+              "variance %.2f %.2f %.2f (1 if the matcher's covariances were exact), neighbour correlation "
+              "%.2f %.2f %.2f\n",
+              name.c_str(), solved, failed, double(intervals) / seeds, measured.c0(0, 0), measured.c0(1, 1),
+              measured.c0(2, 2), c1_correlation(0, 0), c1_correlation(1, 1), c1_correlation(2, 2));
+  std::printf("  %-14s %11s %11s %11s %11s %11s %11s %9s %11s\n", "parameter", "truth", "RMSE", "bias", "sigma",
+              "CRB(Σ)", "CRB", "RMSE/CRB", "sigma/RMSE");
   for (int k = 0; k < p; ++k) {
     const double rmse = std::sqrt(sum_e2[k] / solved), bias = sum_e[k] / solved, sigma = sum_std[k] / solved;
-    std::printf("  %-14s %11.6g %11.3g %+11.2g %11.3g %11.3g %9.2f %9.2f %11.2f\n", names[k].c_str(), truth[k], rmse,
-                bias, sigma, crb[k], rmse / crb[k], rmse / (crb[k] * std::sqrt(factor)), sigma / rmse);
+    std::printf("  %-14s %11.6g %11.3g %+11.2g %11.3g %11.3g %11.3g %9.2f %11.2f\n", names[k].c_str(), truth[k],
+                rmse, bias, sigma, crb_matcher[k], crb[k], rmse / crb[k], sigma / rmse);
   }
   std::fflush(stdout);
 }
