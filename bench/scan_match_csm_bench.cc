@@ -35,6 +35,8 @@
 #include <string>
 #include <vector>
 
+#include <Eigen/Dense>
+
 #include "calib/core/errors.h"
 #include "calib/core/kinematics.h"
 #include "calib/core/laser_scan.h"
@@ -193,6 +195,7 @@ std::vector<Pair> MakePairs(const Case& c, const Data& data, const std::vector<T
 
 struct Errors {
   std::vector<double> translation, rotation;
+  std::vector<double> chi2;  // eᵀ cov⁻¹ e with the matcher's covariance (agvcal), 3 if exact
   int failed = 0;
   void Add(bool valid, const calib::Pose2& estimate, const calib::Pose2& truth) {
     if (!valid) {
@@ -232,7 +235,14 @@ double AgvcalPass(const std::vector<TrueScan>& scans, const std::vector<Pair>& p
     if (p.a != reference_index) reference = std::make_unique<calib::PreparedScan>(scans[p.a].points, options);
     current = std::make_unique<calib::PreparedScan>(scans[p.b].points, options);
     const calib::SensorMotion m = calib::MatchScans(*reference, *current, p.guess, options);
-    if (errors) errors->Add(m.valid, m.delta, p.truth);
+    if (errors) {
+      errors->Add(m.valid, m.delta, p.truth);
+      if (m.valid && !m.degenerate) {
+        const Eigen::Vector3d e(m.delta.x - p.truth.x, m.delta.y - p.truth.y,
+                                calib::WrapAngle(m.delta.theta - p.truth.theta));
+        errors->chi2.push_back(e.dot(m.covariance.inverse() * e));
+      }
+    }
     reference = std::move(current);
     reference_index = p.b;
   }
@@ -353,6 +363,12 @@ void Print(const Result& r, double csm_rate) {
   std::printf("   translation rms %.3f / median %.3f mm, rotation rms %.2f mdeg, %d failed\n",
               1e3 * Rms(r.errors.translation), 1e3 * Median(r.errors.translation),
               1e3 * Rms(r.errors.rotation) * 180.0 / M_PI, r.errors.failed);
+  if (!r.errors.chi2.empty()) {
+    double sum = 0.0;
+    for (double c : r.errors.chi2) sum += c;
+    std::printf("  %-18s mean eᵀ cov⁻¹ e against the truth %.2f (3 if the reported covariance were exact)\n", "",
+                sum / r.errors.chi2.size());
+  }
 }
 
 int Run(int argc, char** argv) {
@@ -394,13 +410,6 @@ int Run(int argc, char** argv) {
     Print(csm, 0.0);
 #endif
     calib::ScanMatchOptions options;
-    if (getenv("FLOOR")) options.incidence_weight_floor = atof(getenv("FLOOR"));
-    if (getenv("RADIUS")) options.line_fit_radius_m = atof(getenv("RADIUS"));
-    if (getenv("BEAMS")) options.line_fit_beams = atof(getenv("BEAMS"));
-    if (getenv("MINPTS")) options.line_fit_min_points = atoi(getenv("MINPTS"));
-    if (getenv("TRIM")) options.trim_fraction = atof(getenv("TRIM"));
-    if (getenv("GATE")) options.residual_gate_sigmas = atof(getenv("GATE"));
-    if (getenv("FLAT")) options.line_max_flatness = atof(getenv("FLAT"));
     Print(RunAgvcal("agvcal symmetric", scans, pairs, options, passes), csm_rate);
     options.symmetric = false;
     Print(RunAgvcal("agvcal one-way", scans, pairs, options, passes), csm_rate);
