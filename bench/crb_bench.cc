@@ -1,6 +1,6 @@
 // agvcal-bench-crb: the calibration's accuracy against the Cramér–Rao bound (issue 19).
 //
-//   agvcal-bench-crb [--seeds N] [--sim NAME.yaml]...
+//   agvcal-bench-crb [--seeds N] [--sim NAME.yaml]... [--nominal-is-truth]
 //
 // For each simulation config (default: config/sims/diff_robot.yaml, forklift.yaml,
 // dual_steer_agv.yaml) simulates the default trajectory with seeds 1..N (default 50), and for
@@ -18,6 +18,8 @@
 //
 // Prints per parameter: RMSE over the seeds, bias, mean reported sigma, both bounds, RMSE/CRB and
 // reported sigma / RMSE.
+#include <unistd.h>
+
 #include <cmath>
 #include <cstdio>
 #include <cstdlib>
@@ -174,15 +176,21 @@ Eigen::MatrixXd Fisher(const Whitened& w, const NoiseModel& noise) {
   throw std::runtime_error("no positive definite noise model");
 }
 
-void RunSim(const std::string& name, int seeds) {
-  const calib::SimConfig base = calib::LoadSimConfig(std::string(AGVCAL_SOURCE_DIR) + "/config/sims/" + name);
+void RunSim(const std::string& name, int seeds, bool nominal_is_truth) {
+  calib::SimConfig base = calib::LoadSimConfig(std::string(AGVCAL_SOURCE_DIR) + "/config/sims/" + name);
+  if (nominal_is_truth) {  // the robot file says the truth: de-skewing and priors exact
+    base.robot.params = base.true_params;
+    base.robot.lidar2d->x = base.true_lidar2d.x;
+    base.robot.lidar2d->y = base.true_lidar2d.y;
+    base.robot.lidar2d->yaw = base.true_lidar2d.yaw;
+  }
   const std::vector<std::string> names = Names(base.robot);
   const std::vector<double> truth = TrueValues(base, names);
   const int p = static_cast<int>(names.size());
   std::vector<Whitened> recordings;
   Eigen::VectorXd sum_e2 = Eigen::VectorXd::Zero(p), sum_std = Eigen::VectorXd::Zero(p), sum_e = sum_e2;
   int solved = 0, failed = 0;
-  const std::string log = "/tmp/agvcal_bench_crb.log";
+  const std::string log = "/tmp/agvcal_bench_crb_" + std::to_string(getpid()) + ".log";
   for (int seed = 1; seed <= seeds; ++seed) {
     calib::SimConfig sim = base;
     sim.seed = seed;
@@ -247,17 +255,21 @@ void RunSim(const std::string& name, int seeds) {
 
 int Run(int argc, char** argv) {
   int seeds = 50;
+  bool nominal_is_truth = false;
   std::vector<std::string> sims;
   for (int i = 1; i < argc; ++i) {
     const std::string a = argv[i];
     if (a == "--help" || a == "-h") {
-      std::cout << "usage: agvcal-bench-crb [--seeds N] [--sim NAME.yaml]...\n"
+      std::cout << "usage: agvcal-bench-crb [--seeds N] [--sim NAME.yaml]... [--nominal-is-truth]\n"
                    "RMSE of the calibration over N seeds (default 50) of each drive's default trajectory\n"
-                   "against the Cramér–Rao bound from the matcher's covariances.\n";
+                   "against the Cramér–Rao bound from the matcher's covariances. --nominal-is-truth: the\n"
+                   "robot file's values set to the truth (de-skewing and odometry priors exact).\n";
       return calib::kExitOk;
     }
     if (a == "--seeds" && i + 1 < argc) {
       seeds = std::max(2, std::atoi(argv[++i]));
+    } else if (a == "--nominal-is-truth") {
+      nominal_is_truth = true;
     } else if (a == "--sim" && i + 1 < argc) {
       sims.push_back(argv[++i]);
     } else {
@@ -265,7 +277,7 @@ int Run(int argc, char** argv) {
     }
   }
   if (sims.empty()) sims = {"diff_robot.yaml", "forklift.yaml", "dual_steer_agv.yaml"};
-  for (const std::string& s : sims) RunSim(s, seeds);
+  for (const std::string& s : sims) RunSim(s, seeds, nominal_is_truth);
   return calib::kExitOk;
 }
 
