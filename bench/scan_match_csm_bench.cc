@@ -348,9 +348,9 @@ calib::SimConfig Sim(const std::string& name, int beams, double fov) {
 std::vector<Case> AllCases() {
   const double fov270 = 1.5 * M_PI;
   std::vector<Case> cases;
-  cases.push_back({"diff540", "540 beams, 270°, differential, keyframe pairs", Sim("diff_robot.yaml", 540, fov270)});
-  cases.push_back({"tricycle540", "540 beams, 270°, tricycle, keyframe pairs", Sim("forklift.yaml", 540, fov270)});
-  Case demo{"demo720", "720 beams, forklift_demo consecutive", Sim("forklift.yaml", 0, 0)};
+  cases.push_back({"diff540", "540 beams, 270°, differential, keyframe pairs", Sim("diff_robot.yaml", 540, fov270), "", false});
+  cases.push_back({"tricycle540", "540 beams, 270°, tricycle, keyframe pairs", Sim("forklift.yaml", 540, fov270), "", false});
+  Case demo{"demo720", "720 beams, forklift_demo consecutive", Sim("forklift.yaml", 0, 0), "", true};
   demo.log = std::string(AGVCAL_SOURCE_DIR) + "/logs/forklift_demo.log";
   demo.consecutive = true;
   cases.push_back(demo);
