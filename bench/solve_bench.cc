@@ -1,8 +1,10 @@
-// agvcal solve on a 10-minute recording with 25 Hz, 720-beam scans (issue 3:
-// under 10 s on the 2-core machine). Simulates three default trajectories of
+// agvcal solve on a 10-minute recording with 25 Hz, 720-beam scans (issue 3: under 10 s on the
+// 2-core machine; issue 19: under 2 s). Prints wall and CPU time (the CPU time is the figure on a
+// loaded machine). Simulates three default trajectories of
 // the differential robot back to back (each from its own start), writes them to
 // one log, then times SolveLog on it: reading, scan matching and calibration.
 #include <chrono>
+#include <ctime>
 #include <cstdio>
 #include <string>
 
@@ -31,12 +33,15 @@ int main(int argc, char** argv) {
     writer.Close();
   }
   const auto start = Clock::now();
+  const std::clock_t cpu_start = std::clock();
   calib::SolveLogOptions options;
   options.calibration.check_observability = false;
   const calib::CalibrationResult r = calib::SolveLog(config.robot, log, options);
   const double seconds = std::chrono::duration<double>(Clock::now() - start).count();
-  std::printf("solve: %.0f s recording (25 Hz scans, 720 beams), %d intervals, %.2f s wall (target < 10 s)\n",
-              simulated_s, r.residual.intervals, seconds);
+  const double cpu = double(std::clock() - cpu_start) / CLOCKS_PER_SEC;
+  std::printf("solve: %.0f s recording (25 Hz scans, 720 beams), %d intervals, %.2f s wall, %.2f s CPU "
+              "(target < 2 s)\n",
+              simulated_s, r.residual.intervals, seconds, cpu);
   std::remove(log.c_str());
   return 0;
 }

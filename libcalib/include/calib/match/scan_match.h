@@ -36,12 +36,15 @@ struct ScanMatchOptions {
   // Correspondences.
   double max_correspondence_distance_m = 0.3;  // point to its nearest reference point
   double residual_gate_sigmas = 3.0;  // pairs with |e| beyond this many robust sigmas dropped
-  double trim_fraction = 0.1;         // share of pairs with the largest |e| dropped, each iteration
+  double trim_fraction = 0.05;        // share of pairs with the largest |e| dropped, each iteration
+  // Weights: each pair by 1 / (n · beam)², the inverse of its error's variance (a range error
+  // moves the point along its beam), (n · beam)² kept at or above this; 1 = unweighted.
+  double incidence_weight_floor = 0.1;
   // Reference lines: consecutive beams within the larger of line_fit_radius_m and
   // line_fit_beams beam spacings (at the point's range) fit a point's line.
-  double line_fit_radius_m = 0.15;
-  double line_fit_beams = 5.0;
-  int line_fit_min_points = 5;
+  double line_fit_radius_m = 0.08;
+  double line_fit_beams = 3.0;
+  int line_fit_min_points = 3;
   double line_max_flatness = 0.05;  // smallest / largest eigenvalue of the fit's scatter
   // Iterations.
   int max_iterations = 40;
@@ -114,7 +117,7 @@ class PreparedScan {
     Eigen::Vector2d centroid;   // of the fitted neighbourhood, m
     Eigen::Vector2d normal;     // unit normal of the fitted line
     Eigen::Vector2d direction;  // unit vector from the sensor towards `point`
-    double angle = 0.0;         // polar angle of `point`, rad in [-pi, pi)
+    double angle = 0.0;         // pseudo-angle of `point` (the polar angle's order), [-2, 2)
     int support = 0;            // points in the fit
   };
   const Line& line(int i) const { return lines_[i]; }
