@@ -12,6 +12,8 @@
 #include <cmath>
 #include <cstdio>
 #include <filesystem>
+#include <fstream>
+#include <iterator>
 #include <string>
 #include <tuple>
 
@@ -308,6 +310,25 @@ TEST(Diagnose, ReportFilesAndSimConfig) {
   for (const char* f : {"summary.txt", "index.html", "residual_time.svg", "route.svg", "signature_1_steering_backlash.svg",
                         "heldout_1_steering_backlash.svg"})
     EXPECT_TRUE(std::filesystem::exists(dir + "/" + f)) << f;
+  // Held-out stretches and the effect's own spans have legends of their own; the page has the
+  // candidates and the calibration as tables; spans also count seconds from the time origin.
+  auto read = [&](const char* f) {
+    std::ifstream in(dir + "/" + f);
+    return std::string(std::istreambuf_iterator<char>(in), {});
+  };
+  const std::string heldout = read("heldout_1_steering_backlash.svg"), residual = read("residual_time.svg");
+  EXPECT_NE(heldout.find("held-out stretch"), std::string::npos);
+  EXPECT_EQ(heldout.find("stands out"), std::string::npos);
+  EXPECT_NE(residual.find("an effect stands out"), std::string::npos);
+  EXPECT_NE(residual.find("time since the recording's first message (s)"), std::string::npos);
+  const std::string page = read("index.html");
+  EXPECT_EQ(page.find("<pre>"), std::string::npos);
+  for (const char* text : {"Every candidate of the catalogue", "<td>steering_backlash</td>", "<td>found</td>",
+                           "baseline ± 1σ", "refitted with the effects ± 1σ", "<td>wheelbase</td>"})
+    EXPECT_NE(page.find(text), std::string::npos) << text;
+  const int64_t origin = j["time_origin_utime"];
+  const nlohmann::json& span = j["effects"][0]["where"][0];
+  EXPECT_NEAR(span["t_start_s"].get<double>(), (span["utime_start"].get<int64_t>() - origin) * 1e-6, 1e-3);
   std::filesystem::remove_all(dir);
   // The written sim config reproduces the robot: truth = refitted calibration, effect = found.
   const std::string yaml = SimConfigYaml(r, Source("config/robots/forklift.yaml"));

@@ -10,8 +10,10 @@
 #include <cmath>
 #include <cstdio>
 #include <cstring>
+#include <filesystem>
 #include <fstream>
 #include <functional>
+#include <iterator>
 #include <random>
 #include <string>
 #include <vector>
@@ -527,6 +529,31 @@ TEST(GroundTest, TurningLidarGetsOneEstimatePerSector) {
   EXPECT_EQ(msg.num_sectors, 24);
   EXPECT_EQ(msg.sectors_done, 24);
   EXPECT_EQ(msg.sector, calibrator.SectorOf(msg.angle));
+
+  // The human report (ground --report): the floor-point sample lies on the calibrated floor
+  // (RMS height within the simulator's range noise), the page has the per-sector table.
+  ASSERT_FALSE(result.floor_points.empty());
+  EXPECT_LE(result.floor_points.size() / 3, GroundResult::kReportFloorPoints);
+  const Eigen::Vector3d n = FloorNormal(result.lidar3d.value.pitch, result.lidar3d.value.roll);
+  double h2 = 0;
+  for (size_t i = 0; i < result.floor_points.size(); i += 3) {
+    const double h = n.x() * result.floor_points[i] + n.y() * result.floor_points[i + 1] +
+                     n.z() * result.floor_points[i + 2] + result.lidar3d.value.z;
+    h2 += h * h;
+  }
+  EXPECT_LT(std::sqrt(h2 / (result.floor_points.size() / 3)), 0.02);
+  EXPECT_EQ(result.frame_fits.size(), result.frame_angles.size());
+  const std::string dir = "/tmp/agvcal_ground_test_report_" + std::to_string(::getpid());
+  WriteGroundReportDir(config.robot, result, GroundInput{"turret.log", "log", 1, 0}, dir);
+  std::ifstream in(dir + "/index.html");
+  const std::string page((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>());
+  EXPECT_NE(page.find("Per sector of the lidar's rotation"), std::string::npos);
+  size_t rows = 0;
+  for (size_t at = page.find("<tr><td>"); at != std::string::npos; at = page.find("<tr><td>", at + 1)) ++rows;
+  EXPECT_EQ(rows, 3u + 24u);  // the mount's z, pitch, roll and one row per sector
+  for (const char* f : {"floor_points.svg", "floor_height_histogram.svg", "frames.svg", "summary.txt"})
+    EXPECT_TRUE(std::filesystem::exists(dir + "/" + f)) << f;
+  std::filesystem::remove_all(dir);
 }
 
 TEST(GroundTest, TurningLidarWithSectorsLeftOutIsRefusedNamingThem) {

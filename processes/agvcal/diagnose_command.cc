@@ -23,10 +23,11 @@ stands out, each effect fitted jointly with the calibration, tested against a
 false-alarm rate over the whole catalogue, and proven on held-out data
 (alternating time blocks the fit never sees). Prints a plain-words summary.
   --out REPORT.json   write the report (spec/cli.md), atomically
-  --report DIR        human report (a folder, created if missing; the figures of an earlier
-                      report there are removed): summary.txt and SVG plots (residual over time
-                      before/after, each effect's signature and its held-out error per
-                      stretch, the route with the spans marked)
+  --report DIR        human report (docs/reports.md; a folder, created if missing; an
+                      earlier agvcal report there is replaced): index.html with the candidates and
+                      the calibration as tables, summary.txt and SVG plots (residual over
+                      time before/after, each effect's signature and its held-out error
+                      per stretch, the route with the spans marked, actuation close-ups)
   --sim SIM_LOG       also diagnose a simulator's recording of the same commands and
                       report where the two differ (REPORT.json key "sim_comparison")
   --write-sim FILE    a simulation config (truth = refitted calibration, effects found)
@@ -61,9 +62,9 @@ int Diagnose(int argc, char** argv) {
   // Where the results go is checked before the analysis (exit 2 at once, naming the path).
   for (const char* option : {"--out", "--write-sim"})
     if (args.Has(option)) calib::CheckWritableFile(args.Get(option, ""), option);
-  if (args.Has("--report")) calib::PrepareReportDir(args.Get("--report", ""));
   if (!args.Has("--quiet")) options.progress = [](const std::string& line) { std::cerr << line << "\n"; };
 
+  if (args.Has("--report")) calib::PrepareReportDir(args.Get("--report", ""));  // a bad folder fails first
   const calib::DiagnoseReport report = calib::DiagnoseLog(robot, log_path, options);
   std::cout << calib::DiagnoseSummaryText(report);
 

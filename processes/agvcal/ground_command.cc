@@ -13,7 +13,7 @@ namespace agvcal_cli {
 namespace {
 const char* kUsage =
     R"(usage: agvcal ground ROBOT.yaml LOG|CLOUD_FILE [--out RESULT.json] [--write-robot CALIBRATED.yaml]
-                     [--config GROUND.yaml] [--no-grid] [--quiet]
+                     [--config GROUND.yaml] [--no-grid] [--report DIR] [--quiet]
 
 Calibrates the 3D lidar's height, pitch and roll above the floor (robot file
 lidar3d) from the CLOUD messages of a recording, or from one PCD file (.pcd) or
@@ -29,6 +29,9 @@ rotation range. Method and options: docs/ground.md.
                        std: and source: added (spec/robot.md)
   --config FILE        options (defaults and every key: config/ground.yaml)
   --no-grid            skip the grid search
+  --report DIR         human report (docs/reports.md): index.html, summary.txt and SVG plots
+                       of the floor points coloured by their height above the calibrated
+                       floor, every frame's fit, the mount and per-sector tables
   --quiet              no table on stdout
 Exit status: 0 calibrated, 2 unusable input (names file, place, problem), 3 the
 floor does not determine the answer (too little floor in view, the robot among
@@ -37,7 +40,7 @@ obstacles, a floor that tilts between frames, a sector without data), 1 internal
 }  // namespace
 
 int Ground(int argc, char** argv) {
-  const auto args = agvcal_process::ParseArgs(argc, argv, 2, {"--out", "--write-robot", "--config"},
+  const auto args = agvcal_process::ParseArgs(argc, argv, 2, {"--out", "--write-robot", "--config", "--report"},
                                               {"--no-grid", "--quiet"});
   if (const auto status = agvcal_process::CheckUsage(args, kUsage, 2)) return *status;
   const calib::RobotDescription robot = calib::LoadRobotFile(args.positional[0]);
@@ -45,6 +48,7 @@ int Ground(int argc, char** argv) {
       args.Has("--config") ? calib::LoadGroundOptions(args.Get("--config", "")) : calib::GroundOptions{};
   for (const char* option : {"--out", "--write-robot"})  // checked before the work (exit 2 at once)
     if (args.Has(option)) calib::CheckWritableFile(args.Get(option, ""), option);
+  if (args.Has("--report")) calib::PrepareReportDir(args.Get("--report", ""));  // a bad folder fails first
   calib::GroundInput input;
   const calib::GroundResult result = calib::CalibrateGroundFile(
       robot, options, args.positional[1], !args.Has("--no-grid"), &input);
@@ -52,6 +56,7 @@ int Ground(int argc, char** argv) {
   if (args.Has("--write-robot"))
     calib::WriteFileAtomically(args.Get("--write-robot", ""),
                                calib::GroundCalibratedRobotYaml(robot, result, args.positional[1]));
+  if (args.Has("--report")) calib::WriteGroundReportDir(robot, result, input, args.Get("--report", ""));
   if (!args.Has("--quiet")) std::cout << calib::GroundResultText(result, input);
   return calib::kExitOk;
 }

@@ -1,8 +1,11 @@
 #include <cstdio>
 #include <iostream>
 
+#include "calib/calibrate/calibration_report.h"
 #include "calib/calibrate/recalibration.h"
 #include "calib/core/errors.h"
+#include "calib/io/atomic_file.h"
+#include "calib/io/log_summary.h"
 #include "commands.h"
 #include "common/process_util.h"
 
@@ -10,7 +13,7 @@ namespace agvcal_cli {
 
 namespace {
 const char* kUsage = R"(usage: agvcal recal ROBOT.yaml LOG --config RECAL.yaml [--out-robot CAL.yaml]
-                    [--decisions DECISIONS.jsonl] [--source lidar2d|pose]
+                    [--decisions DECISIONS.jsonl] [--source lidar2d|pose] [--report DIR]
 
 Recalibration during normal operation, on a recording: what agvcal-recal does
 live, with the same decisions. Segments of the route (zones of the config in the
@@ -24,13 +27,17 @@ there and consistent with the calibration in use (docs/recalibration.md).
   --decisions FILE         every decision appended as a JSON line (atomically)
   --source lidar2d|pose    the sensor whose motion calibrates (default lidar2d if the robot
                            file has one, else pose)
+  --report DIR             human report (docs/reports.md): the decisions, the calibration in
+                           use at the start and the end, every decision's held-out segments,
+                           and the residual, route and parameter plots of the last fit
 Prints one line per decision. Exit status: 0 done (whatever was decided); 2 unusable
 input (robot file, config, log).
 )";
 }  // namespace
 
 int Recal(int argc, char** argv) {
-  const auto args = agvcal_process::ParseArgs(argc, argv, 2, {"--config", "--out-robot", "--decisions", "--source"}, {});
+  const auto args = agvcal_process::ParseArgs(argc, argv, 2, {"--config", "--out-robot", "--decisions", "--source", "--report"},
+                                              {});
   if (const auto status = agvcal_process::CheckUsage(args, kUsage, 2)) return *status;
   if (!args.Has("--config")) throw calib::InputError("command line", "--config", "missing (the recalibration config)");
   const calib::RobotDescription robot = calib::LoadRobotFile(args.positional[0]);
@@ -41,6 +48,7 @@ int Recal(int argc, char** argv) {
           .value();
   const std::string robot_out = args.Get("--out-robot", ""), decisions = args.Get("--decisions", "");
   const calib::CalibrationInUse start = calib::StartingCalibration(robot, robot_out, source, config);
+  if (args.Has("--report")) calib::PrepareReportDir(args.Get("--report", ""));  // a bad folder fails first
   std::printf("calibration in use: %s\n", start.origin.c_str());
   const calib::RecalRun run = calib::RecalibrateLog(
       robot, start, args.positional[1], source, config, [&](const calib::RecalDecision& d) {
@@ -50,6 +58,10 @@ int Recal(int argc, char** argv) {
       });
   std::printf("%d segments (%d dropped as too short, %d waiting for a decision), %zu decisions\n",
               run.segments, run.dropped, run.waiting, run.decisions.size());
+  if (args.Has("--report"))
+    calib::WriteRecalReportDir(start, run, args.positional[1],
+                               calib::RecordingStartUtime(calib::SummarizeLog(args.positional[1])),
+                               args.Get("--report", ""));
   return calib::kExitOk;
 }
 

@@ -3,12 +3,15 @@
 #include <iostream>
 
 #include "calib/calibrate/calibration.h"
+#include "calib/calibrate/calibration_report.h"
 #include "calib/calibrate/heldout.h"
 #include "calib/calibrate/result_files.h"
 #include "calib/calibrate/recording_input.h"
 #include "calib/core/errors.h"
 #include "calib/core/statistics.h"
 #include "calib/core/units.h"
+#include "calib/io/atomic_file.h"
+#include "calib/io/log_summary.h"
 #include "commands.h"
 #include "common/process_util.h"
 
@@ -17,7 +20,7 @@ namespace agvcal_cli {
 namespace {
 const char* kUsage = R"(usage: agvcal solve ROBOT.yaml LOG [--out RESULT.json] [--write-robot CALIBRATED.yaml]
                     [--source lidar2d|pose|imu] [--time-offset] [--fit-fraction F]
-                    [--heldout-windows N] [--quiet]
+                    [--heldout-windows N] [--report DIR] [--quiet]
                     [--distance METRES] [--distance-std METRES] [--turn-angle DEG]
 
 Calibrates the drive parameters of ROBOT.yaml and the mount of its 2D lidar
@@ -29,6 +32,10 @@ the scale, with the gyro's bias, scale (given a measured turn), mount yaw and
 time offset. Prints a summary; RESULT.json follows spec/cli.md.
   --out RESULT.json          write the result (atomically)
   --write-robot FILE         write ROBOT.yaml back with the calibrated values, std: and source:
+  --report DIR               human report (docs/reports.md): index.html, summary.txt and SVG
+                             plots of the residual over time and its histogram with the robot
+                             file's values and calibrated, the held-out windows, the route, the
+                             parameters with sigmas and units, the observability
   --source lidar2d|pose|imu  which sensor measures the motion (default: the lidar if scanned,
                              else external poses, else the IMU)
   --distance METRES          imu: measured length of the first straight run (default imu.distance)
@@ -62,7 +69,7 @@ void PrintEstimate(const std::string& name, const calib::Estimate& e) {
 int Solve(int argc, char** argv) {
   const auto args = agvcal_process::ParseArgs(
       argc, argv, 2,
-      {"--out", "--write-robot", "--source", "--fit-fraction", "--heldout-windows", "--distance", "--distance-std",
+      {"--out", "--write-robot", "--report", "--source", "--fit-fraction", "--heldout-windows", "--distance", "--distance-std",
        "--turn-angle"},
       {"--time-offset", "--quiet"});
   if (const auto status = agvcal_process::CheckUsage(args, kUsage, 2)) return *status;
@@ -97,6 +104,7 @@ int Solve(int argc, char** argv) {
     if (args.Has(option)) calib::CheckWritableFile(args.Get(option, ""), option);
   if (!args.Has("--quiet")) options.progress = [](const std::string& line) { std::cerr << line << "\n"; };
 
+  if (args.Has("--report")) calib::PrepareReportDir(args.Get("--report", ""));  // a bad folder fails first
   const calib::CalibrationResult result = calib::SolveLog(robot, log_path, options);
   // Said even with --quiet: the result stands on less than the recording holds.
   for (const std::string& note : result.input_notes) std::cerr << "agvcal: left out: " << note << "\n";
@@ -163,6 +171,9 @@ int Solve(int argc, char** argv) {
     }
   }
   if (args.Has("--out")) calib::WriteFileAtomically(args.Get("--out", ""), calib::CalibrationResultJson(result));
+  if (args.Has("--report"))
+    calib::WriteSolveReportDir(robot, result, log_path, calib::RecordingStartUtime(calib::SummarizeLog(log_path)),
+                               args.Get("--report", ""));
   if (args.Has("--write-robot")) {
     calib::WriteFileAtomically(args.Get("--write-robot", ""),
                                calib::CalibratedRobotYaml(robot, result, log_path));

@@ -369,10 +369,10 @@ double RobustFit(std::vector<Interval>& intervals, int num_params, const Calibra
   return scale;
 }
 
-// Every interval's residual at `state` (result->intervals) and their summary over the inliers
+// Every interval's residual at `state` and at `nominal` (result->intervals) and their summary over the inliers
 // (result->residual), chi-squares in the robust `scale`; `dim` values were fitted.
-void SummarizeResiduals(const std::vector<Interval>& intervals, const State& state, double scale,
-                        std::size_t num_fit, int dim, CalibrationResult* result) {
+void SummarizeResiduals(const std::vector<Interval>& intervals, const State& state, const State& nominal,
+                        double scale, std::size_t num_fit, int dim, CalibrationResult* result) {
   double chi2_sum = 0.0;
   int inliers = 0;
   Eigen::Vector3d sum_e2 = Eigen::Vector3d::Zero();
@@ -381,6 +381,8 @@ void SummarizeResiduals(const std::vector<Interval>& intervals, const State& sta
     r.utime_start = it.motion->utime_start;
     r.utime_end = it.motion->utime_end;
     r.error = Error(it, state);
+    r.nominal_error = Error(it, nominal);
+    r.measured = Eigen::Vector3d(it.motion->delta.x, it.motion->delta.y, it.motion->delta.theta);
     r.chi2 = Chi2(it, state) / (scale * scale);
     r.outlier = it.outlier;
     r.heldout = it.heldout;
@@ -567,7 +569,7 @@ CalibrationResult Calibrate(const RobotDescription& robot, const WheelTrack& whe
   State state = FirstEstimate(robot, nominal, closed_form_input, &result);
   const double scale = RobustFit(intervals, num_params, options, &state);
   const int dim = num_params + 3 + (with_offset ? 1 : 0);
-  SummarizeResiduals(intervals, state, scale, num_fit, dim, &result);
+  SummarizeResiduals(intervals, state, nominal, scale, num_fit, dim, &result);
   const std::vector<double> sigma = Covariance(InlierScores(intervals, state, num_params, with_offset, scale), &result);
   SetEstimates(state, nominal, sigma, source, with_offset, &result);
   RefuseUndetermined(robot.drive, nominal, sigma, options.check_observability, origin, &result);

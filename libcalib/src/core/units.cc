@@ -38,9 +38,15 @@ std::string ParamUnit(const std::string& key) {
   return "";
 }
 
+std::string PValueNumber(double p) {
+  if (std::isnan(p)) return "n/a";
+  if (!(p >= 1e-12)) return "< 1e-12";
+  return Printf("%.*g", 2, p);
+}
+
 std::string PValueText(double p) {
-  if (!(p >= 1e-12)) return std::isnan(p) ? "p = n/a" : "p < 1e-12";
-  return "p = " + Printf("%.*g", 2, p);
+  const std::string number = PValueNumber(p);
+  return number[0] == '<' ? "p " + number : "p = " + number;
 }
 
 int DecimalsForSigma(double sigma) {

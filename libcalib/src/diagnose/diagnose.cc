@@ -17,6 +17,7 @@
 #include "calib/calibrate/recording_input.h"
 #include "calib/core/errors.h"
 #include "calib/core/laser_scan.h"
+#include "calib/io/log_summary.h"
 #include "calib/core/statistics.h"
 #include "calib/diagnose/selection.h"
 #include "calib/io/message_source.h"
@@ -1412,6 +1413,8 @@ DiagnoseReport DiagnoseLog(const RobotDescription& robot, const std::string& log
                            const DiagnoseOptions& options) {
   DiagnoseData data = ReadDiagnoseData(robot, log_path, options.progress);
   DiagnoseReport report = Diagnose(robot, data, options, log_path);
+  const int64_t origin = RecordingStartUtime(SummarizeLog(log_path));
+  report.recording_start_utime = origin;
   if (data.source != MotionSource::kLidar2d) return report;
   for (const FoundEffect& e : report.effects) {
     if (e.name != "time_offset") continue;
@@ -1426,6 +1429,7 @@ DiagnoseReport DiagnoseLog(const RobotDescription& robot, const std::string& log
                            " s earlier than their stamps (the time offset found in a first pass)");
     break;
   }
+  report.recording_start_utime = origin;
   return report;
 }
 

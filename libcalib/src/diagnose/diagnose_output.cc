@@ -16,10 +16,27 @@ namespace {
 
 nlohmann::json Number(double v) { return std::isfinite(v) ? nlohmann::json(v) : nlohmann::json(); }
 
-nlohmann::json Spans(const std::vector<TimeSpan>& spans) {
+// Seconds since the origin, to the millisecond.
+double Since(int64_t utime, int64_t origin) { return std::round((utime - origin) * 1e-3) * 1e-3; }
+
+// Absolute utime (spec/cli.md) and seconds since the origin (t_start_s, t_end_s).
+nlohmann::json Spans(const std::vector<TimeSpan>& spans, int64_t origin) {
   nlohmann::json j = nlohmann::json::array();
-  for (const TimeSpan& s : spans) j.push_back({{"utime_start", s.utime_start}, {"utime_end", s.utime_end}});
+  for (const TimeSpan& s : spans)
+    j.push_back({{"utime_start", s.utime_start}, {"utime_end", s.utime_end}, {"t_start_s", Since(s.utime_start, origin)},
+                 {"t_end_s", Since(s.utime_end, origin)}});
   return j;
+}
+
+// "12.3-15.0 s, 40.1-44.0 s, ... (N spans)": the first spans, seconds since the origin.
+std::string SpanTimes(const std::vector<TimeSpan>& spans, int64_t origin) {
+  std::ostringstream s;
+  s.setf(std::ios::fixed);
+  s.precision(1);
+  for (std::size_t i = 0; i < spans.size() && i < 5; ++i)
+    s << (i ? ", " : "") << Since(spans[i].utime_start, origin) << "-" << Since(spans[i].utime_end, origin) << " s";
+  if (spans.size() > 5) s << ", ...";
+  return s.str();
 }
 
 nlohmann::json Params(const std::map<std::string, ParamEstimate>& params) {
@@ -61,6 +78,10 @@ std::string EffectSizeKey(const std::string& effect_name) {
   return it == kKeys.end() ? "" : it->second;
 }
 
+int64_t ReportTimeOrigin(const DiagnoseReport& r) {
+  return r.recording_start_utime ? r.recording_start_utime : r.intervals.empty() ? 0 : r.intervals.front().utime_start;
+}
+
 const char* CandidateStatusName(CandidateStatus status) {
   switch (status) {
     case CandidateStatus::kFound: return "found";
@@ -74,8 +95,10 @@ const char* CandidateStatusName(CandidateStatus status) {
 
 std::string DiagnoseReportJson(const DiagnoseReport& r) {
   nlohmann::json j;
+  const int64_t origin = ReportTimeOrigin(r);
   j["verdict"] = r.verdict;
   j["drive"] = DriveTypeName(r.drive);
+  j["time_origin_utime"] = origin;  // t_*_s keys count seconds from here: the recording's first message
   j["effects"] = nlohmann::json::array();
   for (const FoundEffect& e : r.effects) {
     nlohmann::json je = {{"name", e.name}, {"layer", e.layer}, {"params", Params(e.params)}};
@@ -94,14 +117,15 @@ std::string DiagnoseReportJson(const DiagnoseReport& r) {
     if (!e.stretches.empty()) {
       nlohmann::json per = nlohmann::json::array();
       for (const HeldoutStretch& h : e.stretches)
-        per.push_back({{"utime_start", h.utime_start}, {"utime_end", h.utime_end}, {"before", Number(h.before)},
-                       {"after", Number(h.after)}});
+        per.push_back({{"utime_start", h.utime_start}, {"utime_end", h.utime_end},
+                       {"t_start_s", Since(h.utime_start, origin)}, {"t_end_s", Since(h.utime_end, origin)},
+                       {"before", Number(h.before)}, {"after", Number(h.after)}});
       je["heldout_stretch"] = {{"component", e.component}, {"stretches", e.stretches.size()},
                                {"rms_before", Number(e.heldout_stretch_before)},
                                {"rms_after", Number(e.heldout_stretch_after)}, {"per_stretch", per}};
     }
     je["heldout_measure"] = e.heldout_measure;
-    je["where"] = Spans(e.where);
+    je["where"] = Spans(e.where, origin);
     je["regime"] = e.regime;
     je["signature"] = {{"regressor", e.regressor}, {"component", e.signature_component}, {"bins", nlohmann::json::array()}};
     for (const SignatureBin& b : e.signature)
@@ -111,7 +135,7 @@ std::string DiagnoseReportJson(const DiagnoseReport& r) {
   }
   j["unexplained"] = nlohmann::json::array();
   for (const Unexplained& u : r.unexplained)
-    j["unexplained"].push_back({{"where", Spans(u.where)}, {"correlates_with", u.correlates_with},
+    j["unexplained"].push_back({{"where", Spans(u.where, origin)}, {"correlates_with", u.correlates_with},
                                 {"p_value", Number(u.p_value)}, {"component", u.component}});
   j["indistinguishable"] = nlohmann::json::array();
   for (const Indistinguishable& d : r.indistinguishable)
@@ -177,6 +201,8 @@ std::string DiagnoseSummaryText(const DiagnoseReport& r) {
     s << "\n  evidence: " << PValueText(e.p_adjusted) << " after the catalogue-wide correction";
     if (e.delta_bic != 0) s << ", delta BIC " << e.delta_bic;
     s << "\n  where: " << e.where.size() << " time spans, " << e.regime << "\n";
+    if (!e.where.empty())
+      s << "  at " << SpanTimes(e.where, ReportTimeOrigin(r)) << " (s since the recording's first message)\n";
     s << "  held-out " << e.component << " residual where it acts: "
       << BeforeAfter(e.heldout_rms_before, e.heldout_rms_after, Unit(e.component)) << " ("
       << Percent(e.heldout_rms_before, e.heldout_rms_after) << " lower); over all held-out data "
@@ -207,7 +233,8 @@ std::string DiagnoseSummaryText(const DiagnoseReport& r) {
   }
   for (const Unexplained& u : r.unexplained)
     s << "\nUNEXPLAINED residual structure (no catalogued effect): correlates with " << u.correlates_with
-      << ", in " << u.where.size() << " spans.\n";
+      << ", in " << u.where.size() << " spans: " << SpanTimes(u.where, ReportTimeOrigin(r))
+      << " (s since the recording's first message).\n";
   s << "\nOverall held-out residual RMS: x " << BeforeAfter(r.heldout_rms_before[0], r.heldout_rms_after[0], "m")
     << ", y " << BeforeAfter(r.heldout_rms_before[1], r.heldout_rms_after[1], "m") << ", yaw "
     << BeforeAfter(r.heldout_rms_before[2], r.heldout_rms_after[2], "rad") << " (chi2 per interval "

@@ -1,11 +1,15 @@
 // The human report of the diagnosis: summary.txt, SVG plots and an index.html
-// that shows them together.
+// that shows them together with the candidates and the calibration as tables.
 
-#include <filesystem>
+#include <algorithm>
+#include <cmath>
+#include <cstdio>
 #include <sstream>
 
+#include "calib/calibrate/calibration_report.h"
 #include "calib/diagnose/diagnose.h"
 #include "calib/io/atomic_file.h"
+#include "io/report_page.h"
 #include "io/svg_plot.h"
 
 namespace calib {
@@ -14,133 +18,278 @@ namespace {
 const char* kBefore = "#999999";
 const char* kAfter = "#1f5fbf";
 
-std::string HtmlEscape(const std::string& s) {
-  std::string out;
-  for (char c : s) out += c == '<' ? "&lt;" : c == '>' ? "&gt;" : c == '&' ? "&amp;" : std::string(1, c);
-  return out;
-}
+// The time origin of every plot and span: the recording's first message.
+struct Clock {
+  int64_t t0;
+  double operator()(int64_t utime) const { return (utime - t0) * 1e-6; }
+};
 
-}  // namespace
-
-void WriteDiagnoseReportDir(const DiagnoseReport& r, const std::string& dir) {
-  PrepareReportDir(dir);  // created, checked, the last report's figures removed
-  std::vector<std::string> files;
-  const int64_t t0 = r.intervals.empty() ? 0 : r.intervals.front().utime_start;
-  auto sec = [&](int64_t u) { return (u - t0) * 1e-6; };
+std::string ResidualTimePlot(const DiagnoseReport& r, const Clock& sec) {
   std::vector<std::pair<double, double>> spans;
   for (const FoundEffect& e : r.effects)
     if (e.layer != "actuation")
       for (const TimeSpan& t : e.where) spans.push_back({sec(t.utime_start), sec(t.utime_end)});
-
-  {  // Residual over time, held-out intervals, before and after.
-    SvgPlot plot("Held-out residual over time: calibrated model (grey) and with the effects found (blue)");
-    const char* names[3] = {"x residual (mm)", "y residual (mm)", "yaw residual (mrad)"};
-    for (int c = 0; c < 3; ++c) {
-      SvgPlot::Panel& p = plot.AddPanel(names[c], "time (s)", c == 2 ? "mrad" : "mm");
-      SvgPlot::Series b{{}, {}, kBefore, "before", true, {}}, a{{}, {}, kAfter, "after", true, {}};
-      for (const DiagnosedInterval& d : r.intervals) {
-        if (!d.heldout || d.outlier) continue;
-        const double t = sec((d.utime_start + d.utime_end) / 2);
-        b.x.push_back(t), b.y.push_back(d.before[c] * 1e3);
-        a.x.push_back(t), a.y.push_back(d.after[c] * 1e3);
-      }
-      p.series = {b, a};
-      p.spans = spans;
-    }
-    WriteFileAtomically(dir + "/residual_time.svg", plot.Render());
-    files.push_back("residual_time.svg");
-  }
-  int n = 0;
-  for (const FoundEffect& e : r.effects) {
-    const std::string name = "signature_" + std::to_string(++n) + "_" + e.name + ".svg";
-    SvgPlot plot("Signature of " + e.name + (e.wheel.empty() ? "" : " (" + e.wheel + ")") +
-                 ": mean residual per bin, without (grey) and with (blue) the effect");
-    const std::string comp = e.signature_component.empty() ? e.component : e.signature_component;
-    SvgPlot::Panel& p = plot.AddPanel(comp + " residual against " + e.regressor, e.regressor, comp + " residual");
-    SvgPlot::Series b{{}, {}, kBefore, "without", true, {}}, a{{}, {}, kAfter, "with", true, {}};
-    for (const SignatureBin& bin : e.signature) {
-      b.x.push_back(bin.x), b.y.push_back(bin.before);
-      a.x.push_back(bin.x), a.y.push_back(bin.after), a.error.push_back(2 * bin.std_error);
-    }
-    SvgPlot::Series zero{{b.x.empty() ? 0.0 : b.x.front(), b.x.empty() ? 1.0 : b.x.back()}, {0, 0}, "#000000", "", false, {}};
-    p.series = {zero, b, a};
-    WriteFileAtomically(dir + "/" + name, plot.Render());
-    files.push_back(name);
-  }
-  n = 0;
-  for (const FoundEffect& e : r.effects) {  // The held-out proof over stretches.
-    ++n;
-    if (e.stretches.empty()) continue;
-    const std::string name = "heldout_" + std::to_string(n) + "_" + e.name + ".svg";
-    const bool yaw = e.component == "yaw";
-    SvgPlot plot("Held-out proof of " + e.name + ": chained error per stretch, without (grey) and with (blue)");
-    SvgPlot::Panel& p = plot.AddPanel(e.component + " error over the stretch of each held-out block where it acts most",
-                                      "time (s)", yaw ? "mrad" : "mm");
-    SvgPlot::Series b{{}, {}, kBefore, "without", true, {}}, a{{}, {}, kAfter, "with", true, {}};
-    for (const HeldoutStretch& h : e.stretches) {
-      const double t = sec((h.utime_start + h.utime_end) / 2);
-      b.x.push_back(t), b.y.push_back(h.before * 1e3);
-      a.x.push_back(t), a.y.push_back(h.after * 1e3);
-    }
-    SvgPlot::Series zero{{b.x.front(), b.x.back()}, {0, 0}, "#000000", "", false, {}};
-    p.series = {zero, b, a};
-    for (const HeldoutStretch& h : e.stretches) p.spans.push_back({sec(h.utime_start), sec(h.utime_end)});
-    WriteFileAtomically(dir + "/" + name, plot.Render());
-    files.push_back(name);
-  }
-  {  // The route with the mismatch spans.
-    SvgPlot plot("Route (wheel odometry): where the effects found (red) and unexplained structure (orange) stand out",
-                 900, 600);
-    SvgPlot::Panel& p = plot.AddPanel("route", "x (m)", "y (m)");
-    p.equal_axes = true;
-    SvgPlot::Series path{{}, {}, "#bbbbbb", "route", false, {}}, hit{{}, {}, "#d62728", "effects", true, {}},
-        other{{}, {}, "#ff9900", "unexplained", true, {}};
-    auto inside = [](const std::vector<TimeSpan>& where, const DiagnosedInterval& d) {
-      for (const TimeSpan& t : where)
-        if (d.utime_start < t.utime_end && d.utime_end > t.utime_start) return true;
-      return false;
-    };
+  SvgPlot plot("Held-out residual over time: calibrated model (grey) and with the effects found (blue)");
+  const char* names[3] = {"x residual (mm)", "y residual (mm)", "yaw residual (mrad)"};
+  for (int c = 0; c < 3; ++c) {
+    SvgPlot::Panel& p = plot.AddPanel(names[c], SvgPlot::kTimeAxis, c == 2 ? "mrad" : "mm");
+    SvgPlot::Series b{{}, {}, kBefore, "before", true, {}, {}}, a{{}, {}, kAfter, "after", true, {}, {}};
     for (const DiagnosedInterval& d : r.intervals) {
-      path.x.push_back(d.motion.x), path.y.push_back(d.motion.y);
-      for (const FoundEffect& e : r.effects)
-        if (e.layer != "actuation" && inside(e.where, d)) {
-          hit.x.push_back(d.motion.x), hit.y.push_back(d.motion.y);
-          break;
-        }
-      for (const Unexplained& u : r.unexplained)
-        if (inside(u.where, d)) {
-          other.x.push_back(d.motion.x), other.y.push_back(d.motion.y);
-          break;
-        }
+      if (!d.heldout || d.outlier) continue;
+      const double t = sec((d.utime_start + d.utime_end) / 2);
+      b.x.push_back(t), b.y.push_back(d.before[c] * 1e3);
+      a.x.push_back(t), a.y.push_back(d.after[c] * 1e3);
     }
-    p.series = {path, hit, other};
-    WriteFileAtomically(dir + "/route.svg", plot.Render());
-    files.push_back("route.svg");
+    p.series = {b, a};
+    p.spans = spans;
+    p.span_label = "an effect stands out";
   }
-  for (const DiagnoseReport::Trace& tr : r.actuation) {
-    const std::string name = "actuation_" + tr.name.substr(0, tr.name.find(' ')) + ".svg";
-    SvgPlot plot("Actuation: " + tr.name + " measured (black), commanded model (grey), with the effects found (blue)");
-    SvgPlot::Panel& p = plot.AddPanel(tr.name, "time (s)", tr.name.rfind("speed", 0) == 0 ? "rad/s" : "rad");
-    SvgPlot::Series m{{}, {}, "#000000", "measured", false, {}}, b{{}, {}, kBefore, "before", false, {}},
-        a{{}, {}, kAfter, "after", false, {}};
+  return plot.Render();
+}
+
+// Signature residuals are in the component's unit (m or rad): drawn in mm or mrad.
+std::string SignaturePlot(const FoundEffect& e) {
+  SvgPlot plot("Signature of " + e.name + (e.wheel.empty() ? "" : " (" + e.wheel + ")") +
+               ": mean residual per bin, without (grey) and with (blue) the effect");
+  const std::string comp = e.signature_component.empty() ? e.component : e.signature_component;
+  const bool odometry = comp == "x" || comp == "y" || comp == "yaw";
+  const double scale = odometry ? 1e3 : 1.0;
+  const std::string unit = comp == "yaw" ? "mrad" : odometry ? "mm" : comp == "speed" ? "rad/s" : "rad";
+  SvgPlot::Panel& p = plot.AddPanel(comp + " residual (" + unit + ") against " + e.regressor, e.regressor,
+                                    comp + " residual (" + unit + ")");
+  SvgPlot::Series b{{}, {}, kBefore, "without", true, {}, {}}, a{{}, {}, kAfter, "with (±2 s.e.)", true, {}, {}};
+  for (const SignatureBin& bin : e.signature) {
+    b.x.push_back(bin.x), b.y.push_back(bin.before * scale);
+    a.x.push_back(bin.x), a.y.push_back(bin.after * scale), a.error.push_back(2 * bin.std_error * scale);
+  }
+  SvgPlot::Series zero{{b.x.empty() ? 0.0 : b.x.front(), b.x.empty() ? 1.0 : b.x.back()}, {0, 0}, "#000000", "", false, {}, {}};
+  p.series = {zero, b, a};
+  return plot.Render();
+}
+
+std::string HeldoutPlot(const FoundEffect& e, const Clock& sec) {
+  const bool yaw = e.component == "yaw";
+  SvgPlot plot("Held-out proof of " + e.name + ": chained error per stretch, without (grey) and with (blue)");
+  SvgPlot::Panel& p = plot.AddPanel(e.component + " error over the stretch of each held-out block where it acts most",
+                                    SvgPlot::kTimeAxis, yaw ? "mrad" : "mm");
+  SvgPlot::Series b{{}, {}, kBefore, "without", true, {}, {}}, a{{}, {}, kAfter, "with", true, {}, {}};
+  for (const HeldoutStretch& h : e.stretches) {
+    const double t = sec((h.utime_start + h.utime_end) / 2);
+    b.x.push_back(t), b.y.push_back(h.before * 1e3);
+    a.x.push_back(t), a.y.push_back(h.after * 1e3);
+  }
+  SvgPlot::Series zero{{b.x.front(), b.x.back()}, {0, 0}, "#000000", "", false, {}, {}};
+  p.series = {zero, b, a};
+  for (const HeldoutStretch& h : e.stretches) p.spans.push_back({sec(h.utime_start), sec(h.utime_end)});
+  p.span_label = "held-out stretch";
+  p.span_color = SvgPlot::kHeldoutSpanColor;
+  return plot.Render();
+}
+
+std::string RoutePlot(const DiagnoseReport& r) {
+  SvgPlot plot("Route (wheel odometry): where the effects found (red) and unexplained structure (orange) stand out",
+               900, 600);
+  SvgPlot::Panel& p = plot.AddPanel("route", "x (m)", "y (m)");
+  p.equal_axes = true;
+  SvgPlot::Series path{{}, {}, "#bbbbbb", "route", false, {}, {}}, hit{{}, {}, "#d62728", "effects", true, {}, {}},
+      other{{}, {}, "#ff9900", "unexplained", true, {}, {}};
+  auto inside = [](const std::vector<TimeSpan>& where, const DiagnosedInterval& d) {
+    for (const TimeSpan& t : where)
+      if (d.utime_start < t.utime_end && d.utime_end > t.utime_start) return true;
+    return false;
+  };
+  for (const DiagnosedInterval& d : r.intervals) {
+    path.x.push_back(d.motion.x), path.y.push_back(d.motion.y);
+    for (const FoundEffect& e : r.effects)
+      if (e.layer != "actuation" && inside(e.where, d)) {
+        hit.x.push_back(d.motion.x), hit.y.push_back(d.motion.y);
+        break;
+      }
+    for (const Unexplained& u : r.unexplained)
+      if (inside(u.where, d)) {
+        other.x.push_back(d.motion.x), other.y.push_back(d.motion.y);
+        break;
+      }
+  }
+  p.series = {path, hit, other};
+  return plot.Render();
+}
+
+std::string TraceUnit(const DiagnoseReport::Trace& tr) { return tr.name.rfind("speed", 0) == 0 ? "rad/s" : "rad"; }
+
+std::string ActuationPlot(const DiagnoseReport::Trace& tr, const Clock& sec) {
+  SvgPlot plot("Actuation: " + tr.name + " measured (black), commanded model (grey), with the effects found (blue)");
+  SvgPlot::Panel& p = plot.AddPanel(tr.name + " (" + TraceUnit(tr) + ")", SvgPlot::kTimeAxis, TraceUnit(tr));
+  SvgPlot::Series m{{}, {}, "#000000", "measured", false, {}, {}}, b{{}, {}, kBefore, "commanded", false, {}, {}},
+      a{{}, {}, kAfter, "with effects", false, {}, {}};
+  for (std::size_t i = 0; i < tr.utime.size(); ++i) {
+    const double t = sec(tr.utime[i]);
+    m.x.push_back(t), m.y.push_back(tr.measured[i]);
+    b.x.push_back(t), b.y.push_back(tr.before[i]);
+    a.x.push_back(t), a.y.push_back(tr.after[i]);
+  }
+  p.series = {b, a, m};
+  return plot.Render();
+}
+
+// The largest steps of the commanded model, at least 4 s apart (at most `count`).
+std::vector<std::size_t> CommandSteps(const DiagnoseReport::Trace& tr, std::size_t count) {
+  std::vector<std::size_t> order;
+  for (std::size_t i = 1; i < tr.before.size(); ++i) order.push_back(i);
+  std::sort(order.begin(), order.end(), [&](std::size_t a, std::size_t b) {
+    return std::abs(tr.before[a] - tr.before[a - 1]) > std::abs(tr.before[b] - tr.before[b - 1]);
+  });
+  std::vector<std::size_t> steps;
+  for (std::size_t i : order) {
+    if (steps.size() == count || !(std::abs(tr.before[i] - tr.before[i - 1]) > 0)) break;
+    bool apart = true;
+    for (std::size_t s : steps) apart = apart && std::abs((tr.utime[i] - tr.utime[s]) * 1e-6) > 4.0;
+    if (apart) steps.push_back(i);
+  }
+  std::sort(steps.begin(), steps.end());
+  return steps;
+}
+
+// Around the largest command steps, 1 s before to 2 s after: a lag of a tenth of a second
+// shows as the measured curve trailing the commanded step.
+std::string ActuationZoomPlot(const DiagnoseReport::Trace& tr, const std::vector<std::size_t>& steps, const Clock& sec) {
+  SvgPlot plot("Close up of " + tr.name + " at the largest command changes: commanded (grey), measured "
+               "(black), with the effects found (blue)", 900, 200);
+  for (std::size_t s : steps) {
+    const double ts = sec(tr.utime[s]);
+    SvgPlot::Panel& p = plot.AddPanel("command change at " + FixedDecimals(ts, 2) + " s (" + TraceUnit(tr) + ")", SvgPlot::kTimeAxis,
+                                      TraceUnit(tr));
+    SvgPlot::Series m{{}, {}, "#000000", "measured", false, {}, {}}, b{{}, {}, kBefore, "commanded", false, {}, {}},
+        a{{}, {}, kAfter, "with effects", false, {}, {}};
     for (std::size_t i = 0; i < tr.utime.size(); ++i) {
       const double t = sec(tr.utime[i]);
+      if (t < ts - 1.0 || t > ts + 2.0) continue;
       m.x.push_back(t), m.y.push_back(tr.measured[i]);
       b.x.push_back(t), b.y.push_back(tr.before[i]);
       a.x.push_back(t), a.y.push_back(tr.after[i]);
     }
     p.series = {b, a, m};
-    WriteFileAtomically(dir + "/" + name, plot.Render());
-    files.push_back(name);
   }
+  return plot.Render();
+}
+
+// The unit of an effect parameter (effects.md) by its key.
+std::string EffectParamUnit(const std::string& key) {
+  if (key == "slip_per_accel") return "s²/m";
+  if (key == "gain") return "s";
+  if (key == "amplitude") return "(relative)";
+  if (key == "rate_rad_s") return "rad/s";
+  if (key == "phase" || (key.size() > 4 && key.compare(key.size() - 4, 4, "_rad") == 0)) return "rad";
+  return "s";  // offset_s, scan_period_s, tau_s
+}
+
+// The unit of a candidate's estimate: that of its first parameter.
+std::string CandidateUnit(const std::string& name) {
+  if (name == "longitudinal_slip") return EffectParamUnit("slip_per_accel");
+  if (name == "lateral_slip") return EffectParamUnit("gain");
+  if (name == "wheel_eccentricity") return EffectParamUnit("amplitude");
+  if (name == "steering_backlash") return EffectParamUnit("width_rad");
+  if (name == "travel_direction_offset") return EffectParamUnit("offset_rad");
+  if (name == "steering_rate_limit") return EffectParamUnit("rate_rad_s");
+  return "s";
+}
+
+std::vector<std::vector<std::string>> CandidateRows(const DiagnoseReport& r) {
+  std::vector<std::vector<std::string>> rows;
+  for (const CandidateOutcome& c : r.candidates) {
+    const std::string unit = CandidateUnit(c.name);
+    std::string reason = c.note;
+    if (reason.empty() && c.status == CandidateStatus::kFound) reason = "significant and proven on held-out data";
+    if (reason.empty() && c.status == CandidateStatus::kNotSignificant) reason = "not beyond the false-alarm level";
+    rows.push_back({c.name + (c.wheel.empty() ? "" : " (" + c.wheel + ")"), c.layer, CandidateStatusName(c.status),
+                    ValueWithSigma(c.estimate.value, c.estimate.std) + " " + unit,
+                    std::isfinite(c.detectable) && c.detectable > 0 ? SignificantDigits(c.detectable, 2) + " " + unit : "-",
+                    PValueNumber(c.p_adjusted), reason});
+  }
+  return rows;
+}
+
+std::vector<std::vector<std::string>> CalibrationRows(const DiagnoseReport& r) {
+  std::vector<std::vector<std::string>> rows;
+  for (const auto& [name, base] : r.calibration) {
+    const auto it = r.refitted.find(name);
+    const std::string unit = CalibratedValueUnit(name);
+    rows.push_back({name, ValueWithSigma(base.value, base.std) + " " + unit,
+                    it == r.refitted.end() ? "-" : ValueWithSigma(it->second.value, it->second.std) + " " + unit});
+  }
+  return rows;
+}
+
+std::vector<std::vector<std::string>> EffectRows(const DiagnoseReport& r, const Clock& sec) {
+  std::vector<std::vector<std::string>> rows;
+  for (const FoundEffect& e : r.effects) {
+    std::string size, where;
+    for (const auto& [k, v] : e.params) size += (size.empty() ? "" : ", ") + k + " = " + ValueWithSigma(v.value, v.std) + " " + EffectParamUnit(k);
+    for (std::size_t i = 0; i < e.where.size() && i < 6; ++i)
+      where += (i ? ", " : "") + FixedDecimals(sec(e.where[i].utime_start), 1) + "–" + FixedDecimals(sec(e.where[i].utime_end), 1) + " s";
+    if (e.where.size() > 6) where += ", … (" + std::to_string(e.where.size()) + " spans)";
+    rows.push_back({e.name + (e.wheel.empty() ? "" : " (" + e.wheel + ")"), size, PValueNumber(e.p_adjusted),
+                    where.empty() ? "-" : where, e.regime});
+  }
+  return rows;
+}
+
+void AddTables(const DiagnoseReport& r, const Clock& sec, ReportPage* page) {
+  if (!r.effects.empty()) {
+    page->Heading("Effects found");
+    page->Table({"effect", "size ± 1σ", "p (catalogue-wide)", "where it stands out", "under what motion"},
+                EffectRows(r, sec));
+  }
+  page->Heading("Every candidate of the catalogue");
+  page->Paragraph("Status found: in the model now; rejected: significant alone but explained by the effects found "
+                  "(a look-alike); indistinguishable: the recording cannot tell it from its look-alike; "
+                  "not_identifiable: this recording could not have detected it; not_significant: tested, not there. "
+                  "Detectable size: the smallest size this recording would have found (false-alarm rate α, power 0.8).");
+  page->Table({"candidate", "layer", "status", "estimate ± 1σ", "detectable size", "p (catalogue-wide)", "reason"},
+              CandidateRows(r));
+  page->Heading("Calibration");
+  page->Paragraph("Baseline: the calibrated model fitted on the fit blocks without any effect; refitted: jointly "
+                  "with the effects found.");
+  page->Table({"value", "baseline ± 1σ", "refitted with the effects ± 1σ"}, CalibrationRows(r));
+}
+
+}  // namespace
+
+void WriteDiagnoseReportDir(const DiagnoseReport& r, const std::string& dir) {
+  PrepareReportDir(dir);
+  const Clock sec{ReportTimeOrigin(r)};
+  ReportPage page("agvcal diagnose: " + r.verdict);
   const std::string summary = DiagnoseSummaryText(r);
   WriteFileAtomically(dir + "/summary.txt", summary);
-  std::ostringstream html;
-  html << "<!DOCTYPE html><html><head><meta charset=\"utf-8\"><title>agvcal diagnose</title></head><body>\n"
-       << "<h1>agvcal diagnose: " << r.verdict << "</h1>\n<pre>" << HtmlEscape(summary) << "</pre>\n";
-  for (const std::string& f : files) html << "<p><img src=\"" << f << "\" alt=\"" << f << "\"></p>\n";
-  html << "</body></html>\n";
-  WriteFileAtomically(dir + "/index.html", html.str());
+  page.Text(summary);
+  page.Paragraph("Times are seconds since the recording's first message (utime " + std::to_string(sec.t0) + ").");
+  AddTables(r, sec, &page);
+  page.Heading("Plots");
+  auto figure = [&](const std::string& name, const std::string& svg, const std::string& caption) {
+    WriteFileAtomically(dir + "/" + name, svg);
+    page.Figure(name, caption);
+  };
+  figure("residual_time.svg", ResidualTimePlot(r, sec),
+         "Held-out residual over time before and after modelling the effects; shaded: where an effect stands out");
+  int n = 0;
+  for (const FoundEffect& e : r.effects) {
+    const std::string tag = std::to_string(++n) + "_" + e.name;
+    figure("signature_" + tag + ".svg", SignaturePlot(e), "The signature of " + e.name + ": residual against " + e.regressor);
+    if (!e.stretches.empty())
+      figure("heldout_" + tag + ".svg", HeldoutPlot(e, sec),
+             "Held-out proof of " + e.name + "; shaded: the held-out stretches judged");
+  }
+  figure("route.svg", RoutePlot(r), "The route with the spans where the effects stand out");
+  for (const DiagnoseReport::Trace& tr : r.actuation) {
+    std::string tag = tr.name;
+    std::replace(tag.begin(), tag.end(), ' ', '_');
+    figure("actuation_" + tag + ".svg", ActuationPlot(tr, sec), "Actuation over the whole recording: " + tr.name);
+    const std::vector<std::size_t> steps = CommandSteps(tr, 3);
+    if (!steps.empty())
+      figure("actuation_zoom_" + tag + ".svg", ActuationZoomPlot(tr, steps, sec),
+             "Close up of the largest command steps: a lag shows as the measured curve trailing the command");
+  }
+  WriteFileAtomically(dir + "/index.html", page.Render());
 }
 
 }  // namespace calib

@@ -823,6 +823,23 @@ MountEstimate GroundCalibrator::Combine(int sector, std::vector<const Frame*>* u
   return est;
 }
 
+void GroundCalibrator::ReportSample(int home, GroundResult* result) const {
+  for (const Frame& f : frames_) {
+    result->frame_fits.push_back(f.fit);
+    result->frame_angles.push_back(f.angle);
+  }
+  std::vector<const Frame*> used;
+  Combine(home, &used);
+  size_t total = 0;
+  for (const Frame* f : used) total += f->grid_points.size() / 3;
+  const size_t stride = std::max<size_t>(1, (total + GroundResult::kReportFloorPoints - 1) / GroundResult::kReportFloorPoints);
+  size_t k = 0;
+  for (const Frame* f : used)
+    for (size_t i = 0; i < f->grid_points.size() / 3; ++i, ++k)
+      if (k % stride == 0)
+        result->floor_points.insert(result->floor_points.end(), f->grid_points.begin() + 3 * i, f->grid_points.begin() + 3 * i + 3);
+}
+
 GroundResult GroundCalibrator::Result(bool with_grid) const {
   GroundResult result;
   result.frames_seen = frames_seen_;
@@ -864,6 +881,7 @@ GroundResult GroundCalibrator::Result(bool with_grid) const {
   } else {
     result.lidar3d = Estimate(-1);
   }
+  ReportSample(home, &result);
   if (with_grid && options_.grid.max_points > 0) {
     // The grid scores the floor points of the frames that went into lidar3d.
     std::vector<const Frame*> used;

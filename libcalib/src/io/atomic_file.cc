@@ -6,6 +6,8 @@
 #include <filesystem>
 #include <fstream>
 #include <sstream>
+#include <system_error>
+#include <vector>
 
 #include "calib/core/errors.h"
 
@@ -59,21 +61,36 @@ void CheckWritableFile(const std::string& path, const std::string& option) {
   ProbeWritable(parent.string(), path, option);
 }
 
-void PrepareReportDir(const std::string& dir, const std::string& option) {
+void PrepareReportDir(const std::string& dir) {
   namespace fs = std::filesystem;
   std::error_code ec;
   if (fs::exists(dir, ec) && !fs::is_directory(dir, ec))
-    throw InputError(dir, option, "exists and is not a folder; " + option + " takes a folder (created if missing)");
+    throw InputError(dir, "", "exists and is not a directory (the report is a folder)");
   fs::create_directories(dir, ec);
-  if (ec) throw InputError(dir, option, "cannot create the folder: " + ec.message());
-  ProbeWritable(dir, dir, option);
-  for (const fs::directory_entry& entry : fs::directory_iterator(dir, ec)) {
-    const std::string name = entry.path().filename().string();
-    const std::string ext = entry.path().extension().string();
-    if (entry.is_regular_file(ec) &&
-        (ext == ".svg" || ext == ".png" || name == "index.html" || name == "summary.txt"))
-      fs::remove(entry.path(), ec);
+  if (ec) throw InputError(dir, "", "cannot create the report folder: " + ec.message());
+  // A previous report (an index.html titled "agvcal ...") is cleared; a folder with another
+  // index.html is someone else's page and is left alone.
+  const fs::path index = fs::path(dir) / "index.html";
+  if (fs::exists(index, ec)) {
+    std::ifstream in(index);
+    std::string head(4096, '\0');
+    in.read(&head[0], static_cast<std::streamsize>(head.size()));
+    if (head.find("<title>agvcal") == std::string::npos)
+      throw InputError(dir, "index.html", "holds a page that is not an agvcal report; choose another folder");
+    std::vector<fs::path> ours;
+    for (const fs::directory_entry& e : fs::directory_iterator(dir, ec)) {
+      const std::string name = e.path().filename().string();
+      if (e.is_regular_file() && (name == "index.html" || name == "summary.txt" || e.path().extension() == ".svg"))
+        ours.push_back(e.path());
+    }
+    if (ec) throw InputError(dir, "", "cannot read the report folder: " + ec.message());
+    for (const fs::path& p : ours) {
+      fs::remove(p, ec);
+      if (ec) throw InputError(dir, p.filename().string(), "cannot remove the previous report's file: " + ec.message());
+    }
   }
+  // Writable? WriteFileAtomically would say so too, but only after the analysis.
+  ProbeWritable(dir, dir, "");
 }
 
 }  // namespace calib

@@ -94,4 +94,12 @@ LogSummary SummarizeLog(const std::string& path) {
   return summary;
 }
 
+int64_t RecordingStartUtime(const LogSummary& summary) {
+  int64_t first = 0;
+  for (const auto& [name, channel] : summary.channels)
+    if (channel.count > 0 && channel.first_utime > 0 && (first == 0 || channel.first_utime < first))
+      first = channel.first_utime;
+  return first;
+}
+
 }  // namespace calib

@@ -5,19 +5,10 @@
 #include <cstdio>
 #include <sstream>
 
+#include "io/report_page.h"
+
 namespace calib {
 namespace {
-
-std::string Esc(const std::string& s) {
-  std::string out;
-  for (char c : s) {
-    if (c == '<') out += "&lt;";
-    else if (c == '>') out += "&gt;";
-    else if (c == '&') out += "&amp;";
-    else out += c;
-  }
-  return out;
-}
 
 std::string Num(double v) {
   char buf[32];
@@ -39,17 +30,21 @@ std::vector<double> Ticks(double lo, double hi) {
 }  // namespace
 
 SvgPlot::Panel& SvgPlot::AddPanel(const std::string& title, const std::string& x_label, const std::string& y_label) {
-  panels_.push_back({title, x_label, y_label, {}, {}, false});
+  Panel panel;
+  panel.title = title, panel.x_label = x_label, panel.y_label = y_label;
+  panels_.push_back(panel);
   return panels_.back();
 }
 
 std::string SvgPlot::Render() const {
-  const int top = 40, left = 80, right = 170, bottom = 45;
+  const int top = 52, left = 80, right = 170, bottom = 45;
   const int height = top + int(panels_.size()) * (panel_height_ + bottom) + 10;
   std::ostringstream s;
   s << "<svg xmlns=\"http://www.w3.org/2000/svg\" width=\"" << width_ << "\" height=\"" << height
     << "\" font-family=\"sans-serif\" font-size=\"12\">\n<rect width=\"100%\" height=\"100%\" fill=\"white\"/>\n"
-    << "<text x=\"" << width_ / 2 << "\" y=\"22\" text-anchor=\"middle\" font-size=\"15\">" << Esc(title_) << "</text>\n";
+    << "<text x=\"" << width_ / 2 << "\" y=\"22\" text-anchor=\"middle\" font-size=\""
+    << std::clamp(static_cast<int>((width_ - 20) / (0.56 * std::max<std::size_t>(title_.size(), 1))), 9, 15) << "\">"
+    << HtmlEscape(title_) << "</text>\n";
   for (std::size_t p = 0; p < panels_.size(); ++p) {
     const Panel& P = panels_[p];
     const double y0 = top + p * (panel_height_ + bottom), w = width_ - left - right, h = panel_height_ - 20;
@@ -74,11 +69,11 @@ std::string SvgPlot::Render() const {
     }
     auto X = [&](double x) { return left + (x - xmin) / (xmax - xmin) * w; };
     auto Y = [&](double y) { return y0 + h - (y - ymin) / (ymax - ymin) * h; };
-    s << "<text x=\"" << left << "\" y=\"" << y0 - 6 << "\" font-size=\"13\">" << Esc(P.title) << "</text>\n";
+    s << "<text x=\"" << left << "\" y=\"" << y0 - 6 << "\" font-size=\"13\">" << HtmlEscape(P.title) << "</text>\n";
     for (const auto& [a, b] : P.spans) {
       const double xa = X(std::max(a, xmin)), xb = X(std::min(b, xmax));
       if (xb > xa) s << "<rect x=\"" << xa << "\" y=\"" << y0 << "\" width=\"" << std::max(xb - xa, 1.0) << "\" height=\"" << h
-                     << "\" fill=\"#f6c3c3\" opacity=\"0.6\"/>\n";
+                     << "\" fill=\"" << P.span_color << "\" opacity=\"0.6\"/>\n";
     }
     s << "<rect x=\"" << left << "\" y=\"" << y0 << "\" width=\"" << w << "\" height=\"" << h
       << "\" fill=\"none\" stroke=\"#444\"/>\n";
@@ -88,9 +83,9 @@ std::string SvgPlot::Render() const {
     for (double t : Ticks(ymin, ymax))
       s << "<line x1=\"" << left - 4 << "\" x2=\"" << left + w << "\" y1=\"" << Y(t) << "\" y2=\"" << Y(t)
         << "\" stroke=\"#ddd\"/><text x=\"" << left - 6 << "\" y=\"" << Y(t) + 4 << "\" text-anchor=\"end\">" << Num(t) << "</text>\n";
-    s << "<text x=\"" << left + w / 2 << "\" y=\"" << y0 + h + 32 << "\" text-anchor=\"middle\">" << Esc(P.x_label) << "</text>\n";
+    s << "<text x=\"" << left + w / 2 << "\" y=\"" << y0 + h + 32 << "\" text-anchor=\"middle\">" << HtmlEscape(P.x_label) << "</text>\n";
     s << "<text transform=\"translate(" << 16 << "," << y0 + h / 2 << ") rotate(-90)\" text-anchor=\"middle\">"
-      << Esc(P.y_label) << "</text>\n";
+      << HtmlEscape(P.y_label) << "</text>\n";
     int legend = 0;
     for (const Series& se : P.series) {
       if (se.points) {
@@ -99,7 +94,8 @@ std::string SvgPlot::Render() const {
           if (i < se.error.size())
             s << "<line x1=\"" << X(se.x[i]) << "\" x2=\"" << X(se.x[i]) << "\" y1=\"" << Y(se.y[i] - se.error[i])
               << "\" y2=\"" << Y(se.y[i] + se.error[i]) << "\" stroke=\"" << se.color << "\"/>";
-          s << "<circle cx=\"" << X(se.x[i]) << "\" cy=\"" << Y(se.y[i]) << "\" r=\"2.5\" fill=\"" << se.color << "\"/>\n";
+          s << "<circle cx=\"" << X(se.x[i]) << "\" cy=\"" << Y(se.y[i]) << "\" r=\"2.5\" fill=\""
+            << (i < se.colors.size() ? se.colors[i] : se.color) << "\"/>\n";
         }
       } else if (!se.x.empty()) {
         s << "<polyline fill=\"none\" stroke=\"" << se.color << "\" stroke-width=\"1.2\" points=\"";
@@ -110,15 +106,63 @@ std::string SvgPlot::Render() const {
       if (!se.label.empty()) {
         const double ly = y0 + 14 + 16 * legend++;
         s << "<rect x=\"" << left + w + 10 << "\" y=\"" << ly - 9 << "\" width=\"12\" height=\"10\" fill=\"" << se.color
-          << "\"/><text x=\"" << left + w + 26 << "\" y=\"" << ly << "\">" << Esc(se.label) << "</text>\n";
+          << "\"/><text x=\"" << left + w + 26 << "\" y=\"" << ly << "\">" << HtmlEscape(se.label) << "</text>\n";
       }
     }
-    if (!P.spans.empty())
-      s << "<rect x=\"" << left + w + 10 << "\" y=\"" << y0 + 5 + 16 * legend << "\" width=\"12\" height=\"10\" fill=\"#f6c3c3\"/><text x=\""
-        << left + w + 26 << "\" y=\"" << y0 + 14 + 16 * legend << "\">effect stands out</text>\n";
+    if (!P.spans.empty() && !P.span_label.empty()) {
+      s << "<rect x=\"" << left + w + 10 << "\" y=\"" << y0 + 5 + 16 * legend << "\" width=\"12\" height=\"10\" fill=\""
+        << P.span_color << "\"/><text x=\"" << left + w + 26 << "\" y=\"" << y0 + 14 + 16 * legend << "\">"
+        << HtmlEscape(P.span_label) << "</text>\n";
+      ++legend;
+    }
+    if (!P.color_bar_label.empty()) {  // a vertical bar, hi at the top
+      const double bx = left + w + 10, by = y0 + 14 + 16 * legend, bh = std::max(40.0, h - 30 - 16 * legend);
+      for (int k = 0; k < 20; ++k)
+        s << "<rect x=\"" << bx << "\" y=\"" << by + bh * k / 20 << "\" width=\"14\" height=\"" << bh / 20 + 0.5
+          << "\" fill=\"" << ColorRamp(P.color_bar_hi - (k + 0.5) / 20 * (P.color_bar_hi - P.color_bar_lo),
+                                        P.color_bar_lo, P.color_bar_hi) << "\"/>";
+      s << "<text x=\"" << bx << "\" y=\"" << by - 3 << "\">" << HtmlEscape(P.color_bar_label) << "</text>"
+        << "<text x=\"" << bx + 18 << "\" y=\"" << by + 10 << "\">" << Num(P.color_bar_hi) << "</text>"
+        << "<text x=\"" << bx + 18 << "\" y=\"" << by + bh << "\">" << Num(P.color_bar_lo) << "</text>\n";
+    }
   }
   s << "</svg>\n";
   return s.str();
+}
+
+std::string ColorRamp(double v, double lo, double hi) {
+  const double t = hi > lo ? std::clamp((v - lo) / (hi - lo), 0.0, 1.0) : 0.5;
+  // blue (33, 102, 172) -> grey (221, 221, 221) -> red (178, 24, 43)
+  const double a[3] = {33, 102, 172}, m[3] = {221, 221, 221}, b[3] = {178, 24, 43};
+  char buf[8];
+  int rgb[3];
+  for (int k = 0; k < 3; ++k)
+    rgb[k] = static_cast<int>(std::lround(t < 0.5 ? a[k] + (m[k] - a[k]) * 2 * t : m[k] + (b[k] - m[k]) * (2 * t - 1)));
+  std::snprintf(buf, sizeof buf, "#%02x%02x%02x", rgb[0], rgb[1], rgb[2]);
+  return buf;
+}
+
+SvgPlot::Series HistogramSeries(const std::vector<double>& values, double lo, double hi, int bins,
+                                const std::string& color, const std::string& label) {
+  SvgPlot::Series s{{}, {}, color, label, false, {}, {}};
+  if (!(hi > lo) || bins < 1) return s;
+  std::vector<double> count(bins, 0.0);
+  int n = 0;
+  for (double v : values) {
+    if (!std::isfinite(v)) continue;
+    ++n;
+    const int k = static_cast<int>(std::floor((v - lo) / (hi - lo) * bins));
+    count[std::clamp(k, 0, bins - 1)] += 1;  // the outermost bins hold the tails
+  }
+  const double width = (hi - lo) / bins;
+  s.x.push_back(lo), s.y.push_back(0);
+  for (int k = 0; k < bins; ++k) {
+    const double share = n ? count[k] / n : 0.0;
+    s.x.push_back(lo + k * width), s.y.push_back(share);
+    s.x.push_back(lo + (k + 1) * width), s.y.push_back(share);
+  }
+  s.x.push_back(hi), s.y.push_back(0);
+  return s;
 }
 
 }  // namespace calib

@@ -61,6 +61,8 @@ struct CalibrationOptions {
 struct IntervalResidual {
   int64_t utime_start = 0, utime_end = 0;
   Eigen::Vector3d error = Eigen::Vector3d::Zero();  // measured - predicted sensor motion (m, m, rad)
+  Eigen::Vector3d nominal_error = Eigen::Vector3d::Zero();  // the same with the robot file's values
+  Eigen::Vector3d measured = Eigen::Vector3d::Zero();       // the measured sensor motion (m, m, rad)
   double chi2 = 0.0;                                // standardized, 3 dof
   bool outlier = false;
   bool heldout = false;

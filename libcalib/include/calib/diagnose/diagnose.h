@@ -216,6 +216,9 @@ struct DiagnoseReport {
   };
   std::vector<Trace> actuation;
   std::vector<std::string> notes;
+  // The robot-clock utime of the recording's first message: t = 0 of the report's times
+  // (DiagnoseLog sets it; 0: the first interval's start).
+  int64_t recording_start_utime = 0;
 };
 
 // Diagnoses a recording against `robot` (its nominal values are only the
@@ -231,6 +234,9 @@ DiagnoseReport DiagnoseLog(const RobotDescription& robot, const std::string& log
                            const DiagnoseOptions& options);
 
 // REPORT.json (spec/cli.md) with the extra keys of DiagnoseReport.
+// t = 0 of the report's times: recording_start_utime, or the first interval's start.
+int64_t ReportTimeOrigin(const DiagnoseReport& report);
+
 std::string DiagnoseReportJson(const DiagnoseReport& report);
 
 // Plain-words summary: what physics was missing, how large, how much better.

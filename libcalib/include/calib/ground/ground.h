@@ -208,6 +208,13 @@ struct GroundResult {
   int frames_unusable = 0; // frames whose floor fit failed its checks, or that were skipped
   std::optional<GridEstimate> grid;     // the grid search, for lidar3d's frames
   std::vector<SectorEstimate> sectors;  // a rotating lidar: every sector, in order
+  // For the human report (ground --report): a sample of at most kReportFloorPoints floor points
+  // (lidar frame, x y z) of the frames that went into lidar3d, and every kept frame's fit and
+  // mount angle, in order.
+  static constexpr std::size_t kReportFloorPoints = 3000;
+  std::vector<float> floor_points;
+  std::vector<FrameFit> frame_fits;
+  std::vector<double> frame_angles;
 };
 
 class GroundCalibrator {
@@ -244,6 +251,7 @@ class GroundCalibrator {
   };
   // Estimate of `sector` and the frames that went into it.
   MountEstimate Combine(int sector, std::vector<const Frame*>* used) const;
+  void ReportSample(int home, GroundResult* result) const;
   Mount3d nominal_;
   GroundOptions options_;
   int num_sectors_ = 0;

@@ -101,4 +101,11 @@ std::string GroundResultText(const GroundResult& result, const GroundInput& inpu
 std::string GroundCalibratedRobotYaml(const RobotDescription& robot, const GroundResult& result,
                                       const std::string& source);
 
+// `agvcal ground --report DIR`: index.html, summary.txt (GroundResultText) and SVG plots: the
+// floor points coloured by their height above the calibrated floor, that height's histogram,
+// every frame's own fit against the combined estimate, and the per-sector table of a turning
+// lidar. Made like the diagnosis's report (docs/reports.md).
+void WriteGroundReportDir(const RobotDescription& robot, const GroundResult& result, const GroundInput& input,
+                          const std::string& dir);
+
 }  // namespace calib

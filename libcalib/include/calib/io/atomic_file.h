@@ -18,11 +18,11 @@ void AppendFileAtomically(const std::string& path, const std::string& text);
 // Throws InputError naming the path (exit 2) instead of failing after the analysis.
 void CheckWritableFile(const std::string& path, const std::string& option);
 
-// Makes `dir` ready for a human report (--report): creates it if missing, checks it is a
-// folder that takes files, and removes the files an earlier report left there (*.svg,
-// *.png, index.html, summary.txt: the files reports own), so that a reused folder never
-// shows the last run's figures. Throws InputError naming the path (exit 2). Call it before
-// the analysis.
-void PrepareReportDir(const std::string& dir, const std::string& option = "--report");
+// Makes DIR ready for a report: created when missing; when it holds a previous agvcal report
+// (an index.html titled "agvcal ..."), that report's files (index.html, summary.txt, *.svg) are
+// removed, so that none of them is taken for this run's. Throws InputError naming DIR when it
+// is a file, holds an index.html that is not an agvcal report, or cannot be created, cleared or
+// written.
+void PrepareReportDir(const std::string& dir);
 
 }  // namespace calib

@@ -40,4 +40,8 @@ std::optional<ChannelStamp> StampOf(const std::string& channel, const uint8_t* d
 // or truncated log, or a message on a known channel that does not decode.
 LogSummary SummarizeLog(const std::string& path);
 
+// The robot-clock utime of the recording's first message: the smallest first_utime over the
+// channels with messages (the time origin of the human reports); 0 when there is none.
+int64_t RecordingStartUtime(const LogSummary& summary);
+
 }  // namespace calib

@@ -1,0 +1,33 @@
+#pragma once
+// The human reports of `agvcal solve --report DIR` and `agvcal recal --report DIR`, made like the
+// diagnosis's (diagnose.h, WriteDiagnoseReportDir): index.html, summary.txt and SVG plots of the
+// residual over time and its histogram with the robot file's values and with the calibration,
+// the held-out windows of both, the route, the parameters with sigmas and units and the
+// observability (condition number, weak parameters). Times are seconds since the recording's
+// first message (`origin_utime`, calib::RecordingStartUtime). docs/reports.md shows them.
+
+#include <cstdint>
+#include <string>
+
+#include "calib/calibrate/calibration.h"
+#include "calib/calibrate/recalibration.h"
+#include "calib/core/robot.h"
+
+namespace calib {
+
+// The unit of a calibrated value by its name: "m" (radii, track, mounts), "rad" (offsets,
+// yaw), "s" (time offsets), "rad/s" (gyro bias), "1" (gyro scale).
+const char* CalibratedValueUnit(const std::string& name);
+
+// The text of summary.txt (also the top of index.html).
+std::string SolveReportSummary(const CalibrationResult& result, const std::string& log_path);
+
+void WriteSolveReportDir(const RobotDescription& robot, const CalibrationResult& result,
+                         const std::string& log_path, int64_t origin_utime, const std::string& dir);
+
+// One line per decision and the calibration in use at the end; the plots of the last
+// decision that fitted a candidate.
+void WriteRecalReportDir(const CalibrationInUse& start, const RecalRun& run, const std::string& log_path,
+                         int64_t origin_utime, const std::string& dir);
+
+}  // namespace calib
