@@ -136,9 +136,15 @@ TEST(RobotFileWriteTest, EveryBundledRobotFileRoundTrips) {
       const RobotDescription back = ParseRobot(out, path + " (written)");
       for (const auto& [name, v] : robot.params)
         EXPECT_NEAR(back.params.at(name), v * 1.01 + 0.001234567, 0.000005) << path << " " << name << "\n" << out;
-      if (robot.lidar2d) EXPECT_NEAR(back.lidar2d->yaw, robot.lidar2d->yaw + 0.0123456, 0.000005) << path;
-      if (robot.pose) EXPECT_NEAR(back.pose->x, robot.pose->x + 0.0123456, 0.00005) << path;
-      if (robot.lidar3d) EXPECT_NEAR(back.lidar3d->pitch, robot.lidar3d->pitch + 0.0123456, 0.0000005) << path;
+      if (robot.lidar2d) {
+        EXPECT_NEAR(back.lidar2d->yaw, robot.lidar2d->yaw + 0.0123456, 0.000005) << path;
+      }
+      if (robot.pose) {
+        EXPECT_NEAR(back.pose->x, robot.pose->x + 0.0123456, 0.00005) << path;
+      }
+      if (robot.lidar3d) {
+        EXPECT_NEAR(back.lidar3d->pitch, robot.lidar3d->pitch + 0.0123456, 0.0000005) << path;
+      }
       for (const std::string& c : CommentsOf(ReadSource(dir + "/" + entry.path().filename().string()))) {
         const std::vector<std::string> after = CommentsOf(out);
         EXPECT_NE(std::find(after.begin(), after.end(), c), after.end()) << path << ": comment lost: " << c;

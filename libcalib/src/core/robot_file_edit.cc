@@ -87,11 +87,6 @@ std::size_t FlowMapClose(const std::string& text, std::size_t open) {
   return std::string::npos;
 }
 
-std::size_t LineStart(const std::string& text, std::size_t pos) {
-  const std::size_t nl = pos == 0 ? std::string::npos : text.rfind('\n', pos - 1);
-  return nl == std::string::npos ? 0 : nl + 1;
-}
-
 // Where a new entry of the block map whose last key starts at `last_key` goes: the start of
 // the first line after that entry (its value may continue on more indented lines).
 std::size_t AfterBlockEntry(const std::string& text, std::size_t last_key, std::size_t indent) {

@@ -14,7 +14,11 @@ namespace calib {
 // its last part.
 std::string ParamUnit(const std::string& key);
 
-// "p = 0.031", "p = 3.1e-05", or "p < 1e-12" below 1e-12 (where the tail is numerical noise).
+// A p-value as a person reads it, two significant digits: "0.031", "3.1e-05", or "< 1e-12"
+// below 1e-12 (where the tail is numerical noise), never 0; "n/a" when not a number. For
+// table cells headed "p".
+std::string PValueNumber(double p);
+// The same in a sentence: "p = 0.031", "p < 1e-12".
 std::string PValueText(double p);
 
 // The same without "p": "0.031", "3.1e-05", "< 1e-12", "n/a" (a table's cell).
