@@ -208,7 +208,11 @@ class Diagnoser {
   void BuildIntervals();
   Eigen::Vector3d SpreadDerivative(const SensorMotion* m,
                                    const std::map<std::pair<int64_t, int64_t>, const SensorMotion*>& spread) const;
-  void Gate(const Model& m);
+  // Sets aside the intervals that are outliers under every model of `models` (each at its own
+  // robust scale): a large residual that some candidate explains is evidence, not noise.
+  void Gate(const std::vector<Model>& models);
+  // The share of intervals set aside and its correlation with each motion regressor.
+  void DescribeOutliers(DiagnoseReport* report) const;
   // The baseline fitted, every candidate tested and the effects selected (selection.h).
   DiagnoseReport Select(const Model& start, const CalibrationResult& cal);
   // Select's steps.
@@ -256,6 +260,7 @@ class Diagnoser {
   int num_params_ = 0;
   double s2_ = 1.0;  // variance factor of the baseline fit
   Model baseline_, final_;
+  std::vector<Model> alternatives_;  // the candidates' single fits of the last selection
   double offset_start_ = 0.0;
   std::vector<std::string> notes_;
   int m_odo_ = 0, m_act_ = 0;
@@ -958,19 +963,25 @@ DiagnoseReport Diagnoser::Run() {
   // again with them (a strong effect must not hide its own evidence), and the selection rerun.
   Progress("baseline calibration on " + std::to_string(intervals_.size()) + " intervals");
   s2_ = 1.0;
-  Gate(FitModel(start, {}, {}).m);
+  Gate({FitModel(start, {}, {}).m});
   DiagnoseReport report = Select(start, cal);
   for (int pass = 1; pass < 4; ++pass) {  // until the outliers no longer change
     std::vector<bool> before_gate;
     for (const Interval& it : intervals_) before_gate.push_back(it.outlier);
     s2_ = 1.0;
-    Gate(final_);
+    // Set aside only what neither the model chosen nor any candidate's own fit explains: under
+    // the baseline alone, the turn starts and stops a 5 ms offset disturbs were set aside (39
+    // intervals) and what was left carried no offset (issue 16).
+    std::vector<Model> models = alternatives_;
+    models.push_back(final_);
+    Gate(models);
     bool changed = false;
     for (std::size_t k = 0; k < intervals_.size(); ++k) changed = changed || before_gate[k] != intervals_[k].outlier;
     if (!changed) break;
     Progress("outliers re-gated with the effects found; selecting again");
     report = Select(start, cal);
   }
+  DescribeOutliers(&report);
   DiagnoseActuation(robot_, data_, options_, options_.alpha * m_act_ / double(m_odo_ + m_act_), &report);
   FindUnexplained(&report);
   std::stable_sort(report.unexplained.begin(), report.unexplained.end(),
@@ -980,13 +991,45 @@ DiagnoseReport Diagnoser::Run() {
   return report;
 }
 
-void Diagnoser::Gate(const Model& m) {
-  std::vector<double> chi2;
-  for (Interval& it : intervals_) it.outlier = false;
-  for (const Interval& it : intervals_)
-    if (!it.heldout) chi2.push_back(Chi2Of(it, m));
-  const double scale2 = RobustScale2(std::move(chi2));
-  for (Interval& it : intervals_) it.outlier = IsOutlier(Chi2Of(it, m), scale2, kOutlierChi2);
+void Diagnoser::Gate(const std::vector<Model>& models) {
+  for (Interval& it : intervals_) it.outlier = true;
+  for (const Model& m : models) {
+    std::vector<double> chi2;
+    for (const Interval& it : intervals_)
+      if (!it.heldout) chi2.push_back(Chi2Of(it, m));
+    const double scale2 = RobustScale2(std::move(chi2));
+    for (Interval& it : intervals_) it.outlier = it.outlier && IsOutlier(Chi2Of(it, m), scale2, kOutlierChi2);
+  }
+}
+
+void Diagnoser::DescribeOutliers(DiagnoseReport* report) const {
+  struct R {
+    const char* name;
+    double (*get)(const MotionConditions&);
+  };
+  const R regs[] = {
+      {"speed", [](const MotionConditions& c) { return std::abs(c.speed); }},
+      {"acceleration", [](const MotionConditions& c) { return std::abs(c.accel); }},
+      {"turn_rate", [](const MotionConditions& c) { return std::abs(c.turn_rate); }},
+      {"turn_rate_change", [](const MotionConditions& c) { return std::abs(c.turn_accel); }},
+      {"centripetal", [](const MotionConditions& c) { return std::abs(c.centripetal); }},
+      {"steering_rate", [](const MotionConditions& c) { return std::abs(c.steer_rate); }},
+  };
+  const std::vector<DiagnosedInterval>& all = report->intervals;
+  const double n = double(all.size());
+  if (all.empty()) return;
+  double share = 0;
+  for (const DiagnosedInterval& d : all) share += d.outlier;
+  report->outlier_share = share / n;
+  for (const R& r : regs) {  // the point-biserial correlation of "set aside" with the regressor
+    double mx = 0, mo = report->outlier_share, sxx = 0, sxo = 0, soo = 0;
+    for (const DiagnosedInterval& d : all) mx += r.get(d.motion) / n;
+    for (const DiagnosedInterval& d : all) {
+      const double x = r.get(d.motion) - mx, o = (d.outlier ? 1.0 : 0.0) - mo;
+      sxx += x * x, sxo += x * o, soo += o * o;
+    }
+    if (sxx > 0 && soo > 0) report->outlier_correlation[r.name] = sxo / std::sqrt(sxx * soo);
+  }
 }
 
 DiagnoseReport Diagnoser::Select(const Model& start, const CalibrationResult& cal) {
@@ -1024,6 +1067,8 @@ DiagnoseReport Diagnoser::Select(const Model& start, const CalibrationResult& ca
   ReportCalibration(f0, current, cal, &report);
   report.candidates = verdicts.outcomes;
   final_ = current.m;
+  alternatives_.clear();
+  for (const Fit& f : single) alternatives_.push_back(f.m);
   return report;
 }
 
