@@ -49,21 +49,35 @@ struct Observed {
   double sigma_turn, sigma_distance;
 };
 
-// Trimmed mean of the 75 % smallest squared residuals at offset d.
-double Cost(const Cumulative& c, const std::vector<Observed>& obs, double d, std::vector<double>* scratch) {
-  std::vector<double>& r2 = *scratch;
-  r2.clear();
+// The residuals of the turn and of the distance at offset d, in units of the matches' sigmas.
+void Residuals(const Cumulative& c, const std::vector<Observed>& obs, double d, std::vector<double>* turn,
+               std::vector<double>* dist) {
+  turn->clear(), dist->clear();
   for (const Observed& o : obs) {
-    const double turn = c.At(c.heading, o.t1 - d) - c.At(c.heading, o.t0 - d);
-    const double dist = c.At(c.path, o.t1 - d) - c.At(c.path, o.t0 - d);
-    const double et = (o.turn - turn) / o.sigma_turn, ed = (o.distance - dist) / o.sigma_distance;
-    r2.push_back(et * et + ed * ed);
+    turn->push_back((o.turn - (c.At(c.heading, o.t1 - d) - c.At(c.heading, o.t0 - d))) / o.sigma_turn);
+    dist->push_back((o.distance - (c.At(c.path, o.t1 - d) - c.At(c.path, o.t0 - d))) / o.sigma_distance);
   }
-  const std::size_t keep = std::max<std::size_t>(1, r2.size() * 3 / 4);
-  std::nth_element(r2.begin(), r2.begin() + (keep - 1), r2.end());
+}
+
+// Squared robust scale of residuals: their median square over 0.455 (the median of a chi-square
+// with one degree of freedom), at least 1e-12.
+double Scale2(std::vector<double> r) {
+  for (double& x : r) x *= x;
+  std::nth_element(r.begin(), r.begin() + r.size() / 2, r.end());
+  return std::max(r[r.size() / 2] / 0.455, 1e-12);
+}
+
+// The Cauchy cost sum log(1 + r^2 / (2 s)^2) of both components at offset d, each at its own
+// fixed scale s: every interval counts (a residual many sigma large still raises the cost, with
+// bounded influence), so the turn starts and stops that carry the offset are never trimmed away
+// as outliers, and neither component's weight rests on the matcher's covariances.
+double Cost(const Cumulative& c, const std::vector<Observed>& obs, double d, const double scale2[2],
+            std::vector<double>* turn, std::vector<double>* dist) {
+  Residuals(c, obs, d, turn, dist);
   double sum = 0;
-  for (std::size_t k = 0; k < keep; ++k) sum += r2[k];
-  return sum / double(keep);
+  for (std::size_t k = 0; k < turn->size(); ++k)
+    sum += std::log1p((*turn)[k] * (*turn)[k] / (4 * scale2[0])) + std::log1p((*dist)[k] * (*dist)[k] / (4 * scale2[1]));
+  return sum / double(turn->size());
 }
 
 }  // namespace
@@ -91,21 +105,30 @@ TimeOffsetSearch SearchTimeOffset(DriveType drive, const double* params, const W
   }
   out.intervals = static_cast<int>(obs.size());
   if (obs.size() < 10) return out;
-  std::vector<double> scratch;
+  std::vector<double> turn, dist;
+  double scale2[2];
+  auto rescale = [&](double d) {
+    Residuals(c, obs, d, &turn, &dist);
+    scale2[0] = Scale2(turn), scale2[1] = Scale2(dist);
+  };
   auto best_on_grid = [&](double from, double to, double step) {
-    double best = from, best_cost = Cost(c, obs, from, &scratch);
+    double best = from, best_cost = Cost(c, obs, from, scale2, &turn, &dist);
     for (double d = from + step; d <= to + 1e-12; d += step) {
-      const double cost = Cost(c, obs, d, &scratch);
+      const double cost = Cost(c, obs, d, scale2, &turn, &dist);
       if (cost < best_cost) best_cost = cost, best = d;
     }
     return std::make_pair(best, best_cost);
   };
-  auto coarse = best_on_grid(-max_offset_s, max_offset_s, 1e-3);
-  auto fine = best_on_grid(std::max(-max_offset_s, coarse.first - 2e-3), std::min(max_offset_s, coarse.first + 2e-3),
-                           5e-5);
+  // The scales from offset 0, then again from the first pass's best offset (a large offset
+  // inflates them at 0).
+  rescale(0.0);
+  double best = best_on_grid(-max_offset_s, max_offset_s, 1e-3).first;
+  rescale(best);
+  best = best_on_grid(-max_offset_s, max_offset_s, 1e-3).first;
+  const auto fine = best_on_grid(std::max(-max_offset_s, best - 2e-3), std::min(max_offset_s, best + 2e-3), 5e-5);
   out.offset_s = fine.first;
   out.cost = fine.second;
-  out.cost_at_zero = Cost(c, obs, 0.0, &scratch);
+  out.cost_at_zero = Cost(c, obs, 0.0, scale2, &turn, &dist);
   return out;
 }
 

@@ -218,6 +218,8 @@ class Diagnoser {
   // Select's steps.
   Fit FitBaseline(const Model& start, DiagnoseReport* report);  // sets the variance factor
   std::vector<Fit> FitSingles(const std::vector<Candidate>& cands, const Fit& f0) const;
+  // The value of effect parameter `beta` on `grid` with the lowest chi-square on the fit blocks.
+  double BestOnGrid(const Model& m, int beta, const std::vector<double>& grid) const;
   std::vector<SingleFit> SingleFigures(const std::vector<Candidate>& cands, const std::vector<Fit>& single,
                                        const Fit& f0, double log_n) const;
   bool ScoreConfirmed(const Fit& before, const Fit& after) const;
@@ -1089,6 +1091,19 @@ Fit Diagnoser::FitBaseline(const Model& start, DiagnoseReport* report) {
   return f0;
 }
 
+double Diagnoser::BestOnGrid(const Model& m, int beta, const std::vector<double>& grid) const {
+  double best = grid.front(), best_chi2 = 1e300;
+  for (double v : grid) {
+    Model trial = m;
+    trial.beta[beta] = v;
+    double chi2 = 0;
+    for (const Interval& it : intervals_)
+      if (!it.heldout && !it.outlier) chi2 += Chi2Of(it, trial);
+    if (chi2 < best_chi2) best_chi2 = chi2, best = v;
+  }
+  return best;
+}
+
 std::vector<Fit> Diagnoser::FitSingles(const std::vector<Candidate>& cands, const Fit& f0) const {
   std::vector<Fit> single;
   for (const Candidate& c : cands) {
@@ -1097,6 +1112,9 @@ std::vector<Fit> Diagnoser::FitSingles(const std::vector<Candidate>& cands, cons
     // The time offset's cost has local minima a sample period apart (encoder ticks): start
     // it where the calibration's own joint estimate put it.
     if (c.beta[0] == kTimeOffset) from.beta[kTimeOffset] = offset_start_;
+    // A lag's cost is far from quadratic in tau (a 90 ms steering lag fitted from zero stopped
+    // at 48 ms, issue 16): global before local, the best of a grid over its range.
+    if (c.beta[0] == kLag) from.beta[kLag] = BestOnGrid(from, kLag, {0.0, 0.01, 0.02, 0.04, 0.07, 0.1, 0.15, 0.2, 0.3, 0.4});
     single.push_back(FitModel(from, c.beta, c.beta));
   }
   return single;
