@@ -296,12 +296,16 @@ class SlalomLog {
   std::string path_;
 };
 
+DiagnoseReport DiagnoseSlalom(const SimConfig& c) {
+  const SlalomLog log(c);
+  const DiagnoseData data = ReadDiagnoseData(c.robot, log.path(), nullptr);
+  return Diagnose(c.robot, data, DiagnoseOptions{}, log.path());
+}
+
 TEST(Diagnose, SteeringLagWhenSteeringWhileDriving) {
   SimConfig c = Sim("forklift", 18);
   c.effects.steering_lag_tau_s = 0.05;
-  const SlalomLog log(c);
-  const DiagnoseData data = ReadDiagnoseData(c.robot, log.path(), nullptr);
-  const DiagnoseReport r = Diagnose(c.robot, data, DiagnoseOptions{}, log.path());
+  const DiagnoseReport r = DiagnoseSlalom(c);
   ExpectFound(r, "steering_lag", "tau_s", 0.05);
   // Its look-alike, a time offset, was tested against it and not named.
   EXPECT_NE(Outcome(r, "time_offset").status, CandidateStatus::kFound);
@@ -310,9 +314,7 @@ TEST(Diagnose, SteeringLagWhenSteeringWhileDriving) {
 TEST(Diagnose, TimeOffsetNotTakenForSteeringLag) {
   SimConfig c = Sim("forklift", 19);
   c.effects.time_offset_s = 0.01;
-  const SlalomLog log(c);
-  const DiagnoseData data = ReadDiagnoseData(c.robot, log.path(), nullptr);
-  const DiagnoseReport r = Diagnose(c.robot, data, DiagnoseOptions{}, log.path());
+  const DiagnoseReport r = DiagnoseSlalom(c);
   ExpectFound(r, "time_offset", "offset_s", 0.01);
   EXPECT_NE(Outcome(r, "steering_lag").status, CandidateStatus::kFound);
 }
@@ -322,18 +324,14 @@ TEST(Diagnose, TimeOffsetNotTakenForSteeringLag) {
 TEST(Diagnose, LargeSteeringLagIsFoundAtItsSize) {
   SimConfig c = Sim("forklift", 18);
   c.effects.steering_lag_tau_s = 0.09;
-  const SlalomLog log(c);
-  const DiagnoseData data = ReadDiagnoseData(c.robot, log.path(), nullptr);
-  const DiagnoseReport r = Diagnose(c.robot, data, DiagnoseOptions{}, log.path());
+  const DiagnoseReport r = DiagnoseSlalom(c);
   ExpectFound(r, "steering_lag", "tau_s", 0.09);
   EXPECT_NEAR(Find(r, "steering_lag")->params.at("tau_s").value, 0.09, 0.009);
 }
 
 TEST(Diagnose, CleanSlalomHasNoEffect) {
   const SimConfig c = Sim("forklift", 20);
-  const SlalomLog log(c);
-  const DiagnoseData data = ReadDiagnoseData(c.robot, log.path(), nullptr);
-  const DiagnoseReport r = Diagnose(c.robot, data, DiagnoseOptions{}, log.path());
+  const DiagnoseReport r = DiagnoseSlalom(c);
   EXPECT_TRUE(r.effects.empty()) << "named: " << Named(r) << "\n" << DiagnoseSummaryText(r);
 }
 
