@@ -19,6 +19,7 @@
 
 #include <nlohmann/json.hpp>
 
+#include "calib/calibrate/recording_input.h"
 #include "calib/core/errors.h"
 #include "calib/diagnose/diagnose.h"
 #include "calib/io/messages.h"
@@ -91,6 +92,44 @@ void ExpectFound(const DiagnoseReport& r, const std::string& name, const std::st
   EXPECT_GE(HeldoutGain(*e), 0.2) << DiagnoseSummaryText(r);
   EXPECT_FALSE(e->where.empty());
   EXPECT_EQ(r.verdict, "effects_found");
+}
+
+// Issue 16: a 5 ms offset on the differential drive's default trajectory was named
+// longitudinal_slip 0.0057: under the baseline alone the turn starts and stops it disturbs were
+// set aside as outliers (39 intervals), and the offset fitted on what was left did not pay in BIC.
+TEST(Diagnose, FiveMillisecondOffsetIsNamedAloneNotAsSlip) {
+  SimConfig c = Sim("diff_robot", 1);
+  c.effects.time_offset_s = 0.005;
+  const SimLog log(c);
+  const DiagnoseReport r = DiagnoseLog(c.robot, log.path(), DiagnoseOptions{});
+  ASSERT_EQ(r.effects.size(), 1u) << "named: " << Named(r) << "\n" << DiagnoseSummaryText(r);
+  const FoundEffect* e = Find(r, "time_offset");
+  ASSERT_NE(e, nullptr) << "named: " << Named(r);
+  EXPECT_NEAR(e->params.at("offset_s").value, 0.005, 0.0005);
+}
+
+// Issue 16: offsets of 10-50 ms, where real robots are, fell in a hole: `solve --time-offset`
+// found 0.65 ms (100 outliers) for 18 ms on this recording, while diagnose found 18 ms. Both
+// now start from the one global search (calibrate/time_offset_search.h): each within 10 % of
+// the truth, and within 10 % of each other.
+TEST(Diagnose, EighteenMillisecondOffsetFoundByDiagnoseAndSolveAlike) {
+  SimConfig c = Sim("diff_robot", 1);
+  c.effects.time_offset_s = 0.018;
+  const SimLog log(c);
+  SolveLogOptions so;
+  so.calibration.estimate_time_offset = true;
+  const CalibrationResult solved = SolveLog(c.robot, log.path(), so);
+  ASSERT_TRUE(solved.time_offset.has_value());
+  const double by_solve = solved.time_offset->value;
+  EXPECT_NEAR(by_solve, 0.018, 0.0018);
+  const DiagnoseReport r = DiagnoseLog(c.robot, log.path(), DiagnoseOptions{});
+  const FoundEffect* e = Find(r, "time_offset");
+  ASSERT_NE(e, nullptr) << "named: " << Named(r) << "\n" << DiagnoseSummaryText(r);
+  const double by_diagnose = e->params.at("offset_s").value;
+  EXPECT_NEAR(by_diagnose, 0.018, 0.0018);
+  EXPECT_NEAR(by_diagnose, by_solve, 0.1 * std::abs(by_solve));
+  // The share set aside is reported with its correlation to the motion.
+  EXPECT_LT(r.outlier_share, 0.05);
 }
 
 TEST(Diagnose, CleanForkliftHasNoEffect) {
@@ -259,12 +298,16 @@ class SlalomLog {
   std::string path_;
 };
 
+DiagnoseReport DiagnoseSlalom(const SimConfig& c) {
+  const SlalomLog log(c);
+  const DiagnoseData data = ReadDiagnoseData(c.robot, log.path(), nullptr);
+  return Diagnose(c.robot, data, DiagnoseOptions{}, log.path());
+}
+
 TEST(Diagnose, SteeringLagWhenSteeringWhileDriving) {
   SimConfig c = Sim("forklift", 18);
   c.effects.steering_lag_tau_s = 0.05;
-  const SlalomLog log(c);
-  const DiagnoseData data = ReadDiagnoseData(c.robot, log.path(), nullptr);
-  const DiagnoseReport r = Diagnose(c.robot, data, DiagnoseOptions{}, log.path());
+  const DiagnoseReport r = DiagnoseSlalom(c);
   ExpectFound(r, "steering_lag", "tau_s", 0.05);
   // Its look-alike, a time offset, was tested against it and not named.
   EXPECT_NE(Outcome(r, "time_offset").status, CandidateStatus::kFound);
@@ -273,18 +316,24 @@ TEST(Diagnose, SteeringLagWhenSteeringWhileDriving) {
 TEST(Diagnose, TimeOffsetNotTakenForSteeringLag) {
   SimConfig c = Sim("forklift", 19);
   c.effects.time_offset_s = 0.01;
-  const SlalomLog log(c);
-  const DiagnoseData data = ReadDiagnoseData(c.robot, log.path(), nullptr);
-  const DiagnoseReport r = Diagnose(c.robot, data, DiagnoseOptions{}, log.path());
+  const DiagnoseReport r = DiagnoseSlalom(c);
   ExpectFound(r, "time_offset", "offset_s", 0.01);
   EXPECT_NE(Outcome(r, "steering_lag").status, CandidateStatus::kFound);
 }
 
+// Issue 16: a 90 ms lag fitted from zero stopped at 48 ms and was rejected by the BIC gate with
+// 11 % of the intervals set aside; the lag now starts from the best of a grid over its range.
+TEST(Diagnose, LargeSteeringLagIsFoundAtItsSize) {
+  SimConfig c = Sim("forklift", 18);
+  c.effects.steering_lag_tau_s = 0.09;
+  const DiagnoseReport r = DiagnoseSlalom(c);
+  ExpectFound(r, "steering_lag", "tau_s", 0.09);
+  EXPECT_NEAR(Find(r, "steering_lag")->params.at("tau_s").value, 0.09, 0.009);
+}
+
 TEST(Diagnose, CleanSlalomHasNoEffect) {
   const SimConfig c = Sim("forklift", 20);
-  const SlalomLog log(c);
-  const DiagnoseData data = ReadDiagnoseData(c.robot, log.path(), nullptr);
-  const DiagnoseReport r = Diagnose(c.robot, data, DiagnoseOptions{}, log.path());
+  const DiagnoseReport r = DiagnoseSlalom(c);
   EXPECT_TRUE(r.effects.empty()) << "named: " << Named(r) << "\n" << DiagnoseSummaryText(r);
 }
 

@@ -22,7 +22,14 @@ the model leaves out (spec/effects.md): where and under what motion the residual
 stands out, each effect fitted jointly with the calibration, tested against a
 false-alarm rate over the whole catalogue, and proven on held-out data
 (alternating time blocks the fit never sees). Prints a plain-words summary.
-  --out REPORT.json   write the report (spec/cli.md), atomically
+  --out REPORT.json   write the report (spec/cli.md), atomically; besides spec/cli.md's
+                      keys: candidates[] (every candidate: status, estimate value/std,
+                      p_value, delta_bic, detectable, note saying why a significant one
+                      was not named), fit.outlier_share and fit.outlier_correlation (the
+                      share of intervals set aside, which is only what neither the final
+                      model nor any candidate explains, and its correlation with |speed|,
+                      |acceleration|, |turn rate|, |turn-rate change|, |centripetal|,
+                      |steering rate|); docs/mismatch.md lists every key
   --report DIR        human report (docs/reports.md; a folder, created if missing, an earlier
                       agvcal report there cleared): index.html with the candidates and
                       the calibration as tables, summary.txt and SVG plots (residual over

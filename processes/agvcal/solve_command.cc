@@ -42,7 +42,9 @@ time offset. Prints a summary; RESULT.json follows spec/cli.md.
   --distance-std METRES      imu: its one sigma (default 0.001)
   --turn-angle DEG           imu: measured angle of the first turn in place; calibrates the
                              gyro scale (without it the scale stays at imu.gyro_scale)
-  --time-offset              also estimate the lidar-to-wheel time offset
+  --time-offset              also estimate the lidar-to-wheel time offset (within +-0.5 s:
+                             a global search, then the joint fit; the same estimate
+                             agvcal diagnose starts from)
   --fit-fraction F           fit on the first fraction F of the recording, and compare the
                              calibrated with the nominal model's odometry on the rest:
                              windows of equal path, the longest that give N windows

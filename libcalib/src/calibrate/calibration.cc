@@ -14,6 +14,7 @@
 #include "calib/calibrate/closed_form.h"
 #include "calib/calibrate/heldout.h"
 #include "calib/calibrate/interval_model.h"
+#include "calib/calibrate/time_offset_search.h"
 #include "calib/core/errors.h"
 #include "calib/core/statistics.h"
 
@@ -567,6 +568,13 @@ CalibrationResult Calibrate(const RobotDescription& robot, const WheelTrack& whe
 
   const State nominal = StateOf(robot, source);
   State state = FirstEstimate(robot, nominal, closed_form_input, &result);
+  if (with_offset) {
+    // Global before local: the offset's cost has minima an encoder or scan period apart and a
+    // basin as wide as the motion's bandwidth (time_offset_search.h).
+    std::vector<SensorMotion> fit_motions;
+    for (std::size_t k = 0; k < num_fit; ++k) fit_motions.push_back(*usable[k]);
+    state.offset[0] = SearchTimeOffset(robot.drive, state.params, wheels, fit_motions, options.max_time_offset_s).offset_s;
+  }
   const double scale = RobustFit(intervals, num_params, options, &state);
   const int dim = num_params + 3 + (with_offset ? 1 : 0);
   SummarizeResiduals(intervals, state, nominal, scale, num_fit, dim, &result);

@@ -164,7 +164,9 @@ std::string DiagnoseReportJson(const DiagnoseReport& r) {
                              {"translation_after", Number(r.heldout_drift_after.rms_translation_m)},
                              {"heading_before", Number(r.heldout_drift_before.rms_heading_rad)},
                              {"heading_after", Number(r.heldout_drift_after.rms_heading_rad)}}}};
-  j["fit"] = {{"intervals", r.fit_intervals}, {"outliers", r.outliers}, {"variance_factor", Number(r.variance_factor)}};
+  j["fit"] = {{"intervals", r.fit_intervals}, {"outliers", r.outliers}, {"variance_factor", Number(r.variance_factor)},
+              {"outlier_share", Number(r.outlier_share)}, {"outlier_correlation", nlohmann::json::object()}};
+  for (const auto& [name, c] : r.outlier_correlation) j["fit"]["outlier_correlation"][name] = Number(c);
   j["notes"] = r.notes;
   nlohmann::json iv = nlohmann::json::array();
   for (const DiagnosedInterval& d : r.intervals) {
@@ -189,6 +191,17 @@ std::string DiagnoseSummaryText(const DiagnoseReport& r) {
   s.precision(4);
   s << DriveTypeName(r.drive) << " drive: " << r.fit_intervals << " intervals fitted, " << r.heldout_intervals
     << " held out (alternating blocks), " << r.outliers << " outliers set aside.\n";
+  if (r.outlier_correlation.empty()) {
+    s << "Set aside: " << 100.0 * r.outlier_share << " % of all intervals.\n";
+  } else {
+    // What the intervals set aside have in common: outliers that cluster where the turn rate
+    // changes are a time offset left unmodelled.
+    auto strongest = r.outlier_correlation.begin();
+    for (auto it = r.outlier_correlation.begin(); it != r.outlier_correlation.end(); ++it)
+      if (std::abs(it->second) > std::abs(strongest->second)) strongest = it;
+    s << "Set aside: " << 100.0 * r.outlier_share << " % of all intervals; strongest correlation with |"
+      << strongest->first << "| (" << strongest->second << ").\n";
+  }
   if (r.effects.empty()) {
     s << "No significant unmodelled physics: the calibrated model explains the recording within its noise.\n";
   }
@@ -225,6 +238,19 @@ std::string DiagnoseSummaryText(const DiagnoseReport& r) {
     s << "\nINDISTINGUISHABLE: " << d.first << " and " << d.second << " (correlation " << d.correlation
       << "); to tell them apart drive " << d.motion << ".\n";
   bool header = false;
+  // Candidates significant by their Wald statistic but not found: the look-alikes rejected,
+  // and where the Wald test and the BIC gate or held-out proof disagree, why.
+  for (const CandidateOutcome& c : r.candidates) {
+    if (c.status == CandidateStatus::kFound || c.status == CandidateStatus::kIndistinguishable || c.note.empty() ||
+        c.status == CandidateStatus::kNotIdentifiable)
+      continue;
+    if (!header) s << "\nRejected look-alikes and disagreeing tests:\n";
+    header = true;
+    s << "  " << c.name << (c.wheel.empty() ? "" : " (" + c.wheel + ")") << " " << CandidateStatusName(c.status)
+      << ": estimate " << c.estimate.value << " +- " << c.estimate.std << ", p = " << c.p_adjusted << ", delta BIC "
+      << c.delta_bic << ", detectable " << c.detectable << "; " << c.note << "\n";
+  }
+  header = false;
   for (const CandidateOutcome& c : r.candidates) {
     if (c.status != CandidateStatus::kNotIdentifiable) continue;
     if (!header) s << "\nNot identifiable with this recording (neither found nor ruled out):\n";

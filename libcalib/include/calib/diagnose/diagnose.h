@@ -207,6 +207,12 @@ struct DiagnoseReport {
   double heldout_chi2_before = 0, heldout_chi2_after = 0;  // per held-out interval
   OdometryError heldout_drift_before, heldout_drift_after;  // over drift_window_s windows
   int fit_intervals = 0, heldout_intervals = 0, outliers = 0;
+  // Share of all intervals set aside (outliers under the final model and under every
+  // candidate's own fit) and its correlation with each motion regressor (|speed|,
+  // |acceleration|, |turn rate|, |turn-rate change|, |centripetal|, |steering rate|): outliers
+  // that cluster where the turn rate changes are a time offset left unmodelled.
+  double outlier_share = 0;
+  std::map<std::string, double> outlier_correlation;
   double variance_factor = 1;
   // Actuation layer time series (for plots): utime, measured, predicted before/after.
   struct Trace {

@@ -1,0 +1,41 @@
+#pragma once
+// Global search for the sensor-to-wheel time offset, before any local fit.
+//
+// The interval cost of a time offset has local minima an encoder or scan period apart and a basin
+// only as wide as the motion's bandwidth allows; a local fit started at zero found 0.3 ms for an
+// 18 ms offset and 38.6 ms for MIT CSAIL's 242 ms (issue 16). So every estimate of the offset
+// (`agvcal solve --time-offset`, calibration.cc, and `agvcal diagnose`, which starts from the
+// calibration's joint estimate) starts from this search, and the local, joint fit refines it.
+//
+// The search: the wheel odometry under the drive parameters `params` (ParamNames order) is
+// integrated once into a cumulative heading and path length over the encoder samples. For an
+// offset d, interval k's wheel motion is the difference of those over [t0 - d, t1 - d]
+// (interval_model.h's convention: a scan stamped t was taken at wheel time t - d), compared with
+// the sensor's measured turn and travelled distance, each in units of the match's standard
+// deviation: the cross-correlation of the wheel and scan-matched turn rates (and speeds), as a
+// cost. The cost of an offset is the trimmed mean of the 75 % smallest squared residuals (large
+// residuals of a wrong offset, failed matches and unmodelled effects cannot pull it), on a 1 ms
+// grid over [-max, max], then on a 0.05 ms grid around the best point. The heading and distance
+// do not depend on the sensor's mount to first order, so the search needs no mount.
+
+#include <vector>
+
+#include "calib/core/robot.h"
+#include "calib/core/sensor_motion.h"
+#include "calib/core/wheel_track.h"
+
+namespace calib {
+
+struct TimeOffsetSearch {
+  double offset_s = 0.0;       // the global minimum of the cost
+  double cost = 0.0;           // trimmed mean squared residual there (units of the matches' sigma)
+  double cost_at_zero = 0.0;   // the same at offset 0
+  int intervals = 0;           // intervals used
+};
+
+// The search over [-max_offset_s, max_offset_s]; `motions` the valid, non-degenerate ones are
+// used (at least 10, else offset 0 is returned with intervals < 10).
+TimeOffsetSearch SearchTimeOffset(DriveType drive, const double* params, const WheelTrack& wheels,
+                                  const std::vector<SensorMotion>& motions, double max_offset_s);
+
+}  // namespace calib
