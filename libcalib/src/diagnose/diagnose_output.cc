@@ -83,6 +83,7 @@ std::string DiagnoseReportJson(const DiagnoseReport& r) {
     }
     je["heldout_measure"] = e.heldout_measure;
     je["where"] = Spans(e.where);
+    if (e.region) je["region"] = {(*e.region)[0], (*e.region)[1], (*e.region)[2], (*e.region)[3]};
     je["regime"] = e.regime;
     je["signature"] = {{"regressor", e.regressor}, {"component", e.signature_component}, {"bins", nlohmann::json::array()}};
     for (const SignatureBin& b : e.signature)
