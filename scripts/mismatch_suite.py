@@ -218,8 +218,8 @@ def random_sim_text(drive, seed, sensors, world_path, effects):
             f"  wheels: {{rate: {sensors['enc_rate']}, ticks_per_rev: {sensors['ticks']}{steer}}}",
             f"  lidar2d: {{rate: {sensors['scan_rate']}, beams: {sensors['beams']}, fov: {sensors['fov']}, "
             f"range_noise: {sensors['range_noise']}}}",
-            f"  imu: {{rate: {min(200.0, round(phys, 1))}}}",
-            f"  ground_truth: {{rate: {min(100.0, round(phys, 1))}}}"]
+            f"  imu: {{rate: {min(200.0, math.floor(phys * 10) / 10)}}}",
+            f"  ground_truth: {{rate: {min(100.0, math.floor(phys * 10) / 10)}}}"]
     if effects:
         out.append("effects:")
         out += ["  " + e for e in effects]

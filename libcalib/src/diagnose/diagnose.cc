@@ -950,7 +950,9 @@ void Diagnoser::TestRegions(const std::vector<Candidate>& cands, const Fit& curr
       ri.A.rightCols(3) = jac.mount / s;
       in.push_back(ri), index.push_back(k);
     }
-    const RegionTest t = BestRegion(in, options_.hac_lags, 1.0);
+    // Physical sign: a floor that slips loses ground while accelerating (slip_per_accel > 0)
+    // and lets the robot skid outwards in a turn (gain > 0).
+    const RegionTest t = BestRegion(in, options_.hac_lags, 1.0, +1);
     const double share = levels.alpha / std::max(1, levels.candidates);
     if (!(t.p_adjusted < share) || !t.heldout_confirmed) {
       std::ostringstream note;

@@ -20,7 +20,8 @@ namespace calib::diag {
 namespace {
 
 constexpr double kMinCommands = 20;
-constexpr double kMinGain = 0.05;  // practical floor: held-out RMS at least 5 % lower
+constexpr double kMinGain = 0.05;
+constexpr int kSubsamples = 8;  // per encoder sample, for the setpoint's mean over it  // practical floor: held-out RMS at least 5 % lower
 
 struct Series {
   std::vector<double> t;                       // s from the first sample
@@ -139,8 +140,8 @@ class Setpoints {
   std::vector<Point> from_, to_;
 };
 
-// The setpoints over the wheel samples (each the value over [t_i, t_i+1]: at its start when
-// held, at its middle when ramped), and the fit / held-out blocks.
+// The setpoints over the wheel samples (each its mean over [t_i, t_i+1]), and the fit /
+// held-out blocks.
 Series CommandSeries(const RobotDescription& robot, const Track& tr, const std::vector<DriveCommand>& commands,
                      double block_s, bool ramp) {
   const std::size_t n = tr.utime.size();
@@ -157,10 +158,17 @@ Series CommandSeries(const RobotDescription& robot, const Track& tr, const std::
     s.t[i] = (tr.utime[i] - tr.utime[0]) * 1e-6;
     s.heldout[i] = int64_t(s.t[i] / block_s) % 2 == 1;
     s.chunk[i] = int(s.t[i]);
-    const double t = ramp && i + 1 < n ? 0.5 * double(tr.utime[i] + tr.utime[i + 1]) : double(tr.utime[i]);
-    const Setpoints::Point p = setpoints.At(t, setpoints.size());
-    s.speed_cmd[i] = p.speed;
-    s.steer_cmd[i] = p.steer;
+    // The setpoint's mean over [t_i, t_i+1] (a command rarely arrives on an encoder sample: taking
+    // the value at t_i moves every step to the next sample, half an encoder period late on average).
+    const double t0 = double(tr.utime[i]), t1 = i + 1 < n ? double(tr.utime[i + 1]) : t0;
+    s.speed_cmd[i] = s.steer_cmd[i] = {0, 0};
+    for (int k = 0; k < kSubsamples; ++k) {
+      const Setpoints::Point p = setpoints.At(t0 + (k + 0.5) / kSubsamples * (t1 - t0), setpoints.size());
+      for (int w = 0; w < 2; ++w) {
+        s.speed_cmd[i][w] += p.speed[w] / kSubsamples;
+        s.steer_cmd[i][w] += p.steer[w] / kSubsamples;
+      }
+    }
   }
   return s;
 }

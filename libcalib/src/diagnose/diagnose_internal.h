@@ -50,8 +50,9 @@ struct RegionTest {
 };
 
 // The box of a grid of `cell_m` over the intervals' positions (every box of whole cells) in which
-// the effect's term, alone there, is most significant on the fit blocks; intervals in time order.
-RegionTest BestRegion(const std::vector<RegionInterval>& intervals, int hac_lags, double cell_m);
+// the effect's term, alone there, is most significant on the fit blocks with the physical sign
+// `sign` (+1: positive sizes only, -1 negative, 0 either); intervals in time order.
+RegionTest BestRegion(const std::vector<RegionInterval>& intervals, int hac_lags, double cell_m, int sign);
 
 // Actuation layer: DRIVE_CMD against the encoders (drive_lag, steering_rate_limit).
 // Appends candidates, found effects and traces to `report`; returns the number

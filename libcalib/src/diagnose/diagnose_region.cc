@@ -166,7 +166,7 @@ std::array<int, 4> Grow(const Grid& grid, const std::vector<Tried>& tried, const
 
 }  // namespace
 
-RegionTest BestRegion(const std::vector<RegionInterval>& intervals, int hac_lags, double cell_m) {
+RegionTest BestRegion(const std::vector<RegionInterval>& intervals, int hac_lags, double cell_m, int sign) {
   RegionTest out;
   if (intervals.empty()) return out;
   const Grid grid = MakeGrid(intervals, cell_m);
@@ -174,7 +174,7 @@ RegionTest BestRegion(const std::vector<RegionInterval>& intervals, int hac_lags
   out.boxes = int(tried.size());
   const Tried* best = nullptr;
   for (const Tried& t : tried)
-    if (!best || t.wald > best->wald) best = &t;
+    if (t.beta * sign >= 0 && (!best || t.wald > best->wald)) best = &t;
   if (!best || !(best->wald > 0)) return out;
   out.beta = best->beta, out.std = best->std, out.wald = best->wald;
   out.p = ChiSquareUpperTail(out.wald, 1);
@@ -187,7 +187,10 @@ RegionTest BestRegion(const std::vector<RegionInterval>& intervals, int hac_lags
       var > 0) {
     out.heldout_beta = beta;
     out.heldout_z = (out.beta > 0 ? beta : -beta) / std::sqrt(var);
-    out.heldout_confirmed = out.heldout_z > kHeldoutZ;
+    // A real effect has one size: the held-out estimate must also agree with the fit blocks'
+    // (a place where the scan matcher errs shows as different "slips" in the two halves).
+    const bool agrees = std::abs(beta - out.beta) <= 2.0 * std::sqrt(var + out.std * out.std);
+    out.heldout_confirmed = out.heldout_z > kHeldoutZ && agrees;
   }
   const std::array<int, 4> region = Grow(grid, tried, *best, hac_lags);
   out.box = grid.Box(region);
