@@ -78,15 +78,21 @@ def start_pose(seed):
     return f"start: {{x: {r * math.cos(a):.3f}, y: {r * math.sin(a):.3f}, theta: {rng.uniform(-math.pi, math.pi):.3f}}}"
 
 
+def seeded_line(line, seed):
+    """A top-level line of a drive's sim config for one seed: the robot file by absolute path,
+    the seed, the seed's start."""
+    if line.startswith("robot: ../robots/"):
+        return "robot: " + os.path.join(HERE, "config", "robots", line.split("/")[-1])
+    if line.startswith("seed:"):
+        return f"seed: {seed}"
+    if line.startswith("start:"):
+        return start_pose(seed)
+    return line
+
+
 def run_one(args, drive, scenario, effects, seed, extra_sensors=None, trajectory="default"):
     """Simulates and diagnoses one recording; returns the parsed REPORT.json (or an error)."""
     tag = f"{drive}_{scenario}_{seed}"
-    sim = os.path.join(args.work, tag + ".yaml")
-    log = os.path.join(args.work, tag + ".log")
-    out = os.path.join(args.work, tag + ".json")
-    if args.reuse and os.path.exists(out):  # a finished run of this work folder: score it again
-        with open(out) as f:
-            return json.load(f)
     with open(os.path.join(HERE, "config", "sims", drive + ".yaml")) as f:
         text = f.read()
     lines = []
@@ -94,12 +100,7 @@ def run_one(args, drive, scenario, effects, seed, extra_sensors=None, trajectory
     for line in text.splitlines():
         if line and not line.startswith(" "):
             section = line.split(":")[0]
-        if line.startswith("robot: ../robots/"):
-            line = "robot: " + os.path.join(HERE, "config", "robots", line.split("/")[-1])
-        elif line.startswith("seed:"):
-            line = f"seed: {seed}"
-        elif line.startswith("start:"):
-            line = start_pose(seed)
+        line = seeded_line(line, seed)
         for replacement in extra_sensors or []:
             if section == "sensors" and line.strip().startswith(replacement.split(":")[0] + ":"):
                 line = "  " + replacement
@@ -107,25 +108,7 @@ def run_one(args, drive, scenario, effects, seed, extra_sensors=None, trajectory
     if effects:
         lines.append("effects:")
         lines += ["  " + e for e in effects]
-    with open(sim, "w") as f:
-        f.write("\n".join(lines) + "\n")
-    agvcal = os.path.join(args.build, "agvcal")
-    r = subprocess.run([agvcal, "simulate", sim, log, "--trajectory", trajectory, "--quiet"],
-                       stdout=subprocess.DEVNULL, stderr=subprocess.PIPE, text=True)
-    if r.returncode != 0:
-        return {"error": f"simulate exit {r.returncode}: {r.stderr.strip()[:200]}"}
-    robot = os.path.join(HERE, "config", "robots", drive_robot(drive))
-    r = subprocess.run([agvcal, "diagnose", robot, log, "--out", out, "--quiet"], stdout=subprocess.DEVNULL,
-                       stderr=subprocess.PIPE, text=True)
-    os.remove(log)
-    if r.returncode != 0:
-        return {"error": f"exit {r.returncode}: {r.stderr.strip()[:200]}"}
-    with open(out) as f:
-        rep = json.load(f)
-    rep.pop("intervals", None)  # keep the work folder small
-    with open(out, "w") as f:
-        json.dump(rep, f)
-    return rep
+    return simulate_and_diagnose(args, tag, "\n".join(lines) + "\n", drive, trajectory)
 
 
 def simulate_and_diagnose(args, tag, sim_text, drive, trajectory="default"):
@@ -202,15 +185,7 @@ def random_sim_text(drive, seed, sensors, world_path, effects):
             section = line.split(":")[0]
         if section == "sensors" or line.startswith("#"):
             continue
-        if line.startswith("robot: ../robots/"):
-            line = "robot: " + os.path.join(HERE, "config", "robots", line.split("/")[-1])
-        elif line.startswith("seed:"):
-            line = f"seed: {seed}"
-        elif line.startswith("start:"):
-            line = start_pose(seed)
-        elif line.startswith("world:"):
-            line = f"world: {world_path}"
-        out.append(line)
+        out.append(f"world: {world_path}" if line.startswith("world:") else seeded_line(line, seed))
     steer = ", steer_resolution: 0.0002, steer_noise: 0.0002" if DRIVES[drive]["steered"] else ""
     out += [f"physics_step: {sensors['step']}",
             f"commands: {{rate: {sensors['cmd_rate']}, between: {sensors['between']}}}",
@@ -386,6 +361,17 @@ def random_report(args, rows, mde):
     return "\n".join(lines) + "\n"
 
 
+def write_outputs(args, text, rows):
+    """The Markdown report to --out, the rows to --json, the report to stdout."""
+    if args.out:
+        with open(args.out, "w") as f:
+            f.write(text)
+    if args.json:
+        with open(args.json, "w") as f:
+            json.dump(rows, f, indent=1)
+    print(text)
+
+
 def main():
     ap = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
     ap.add_argument("--build", default=os.environ.get("AGVCAL_BIN", os.path.join(HERE, "build")))
@@ -410,14 +396,7 @@ def main():
     pool = cf.ThreadPoolExecutor(max_workers=args.jobs)
     if args.random:
         rows, mde = random_suite(args, drives, pool)
-        text = random_report(args, rows, mde)
-        if args.out:
-            with open(args.out, "w") as f:
-                f.write(text)
-        if args.json:
-            with open(args.json, "w") as f:
-                json.dump(rows, f, indent=1)
-        print(text)
+        write_outputs(args, random_report(args, rows, mde), rows)
         return
 
     # 1. Controls without any effect: false alarms, and the detectable sizes.
@@ -564,13 +543,7 @@ def main():
                          f" | {nothing} | {errors} |")
     text = "\n".join(lines + confusion) + "\n"
     text += f"\nWork folder (REPORT.json of every run): `{args.work}`.\n" if not args.out else ""
-    if args.out:
-        with open(args.out, "w") as f:
-            f.write(text)
-    if args.json:
-        with open(args.json, "w") as f:
-            json.dump(rows, f, indent=1)
-    print(text)
+    write_outputs(args, text, rows)
     # Exit status for CI: every named effect right on the quick set.
     if args.quick:
         bad = [k for k in ordered if any("error" in r for r in results[k])]
