@@ -54,6 +54,7 @@ struct Layer {
   double lo = 0, hi = 1;  // search range (in the search variable)
   bool log_search = false;
   double plausible_sigma = 0.5;
+  double min_value = 0;  // below it the effect cannot be told from the data's timing
   std::vector<double> regressor;  // per sample, for the signature
   std::vector<bool> use;          // wheels used
 };
@@ -69,14 +70,29 @@ double Sse(const Layer& L, const std::vector<std::array<double, 2>>& pred, const
   return sum;
 }
 
-// The median time between commands, s (the period a ramping controller ramps over).
-double CommandPeriod(const std::vector<DriveCommand>& commands) {
+// The command period, s (what a ramping controller ramps over): the mean time between commands
+// within half to one and a half times the median (stamps jitter around the period, e.g. by
+// the controller's tick, so the median alone can be one jittered value; pauses are left out);
+// `jitter`: the RMS deviation of those gaps from it, s.
+double CommandPeriod(const std::vector<DriveCommand>& commands, double* jitter = nullptr) {
   std::vector<int64_t> gaps;
   for (std::size_t c = 1; c < commands.size(); ++c)
     if (commands[c].utime > commands[c - 1].utime) gaps.push_back(commands[c].utime - commands[c - 1].utime);
+  if (jitter) *jitter = 0;
   if (gaps.empty()) return 0.05;
-  std::nth_element(gaps.begin(), gaps.begin() + gaps.size() / 2, gaps.end());
-  return gaps[gaps.size() / 2] * 1e-6;
+  std::vector<int64_t> sorted = gaps;
+  std::nth_element(sorted.begin(), sorted.begin() + sorted.size() / 2, sorted.end());
+  const double median = double(sorted[sorted.size() / 2]);
+  std::vector<double> regular;
+  for (int64_t g : gaps)
+    if (g >= 0.5 * median && g <= 1.5 * median) regular.push_back(double(g));
+  const double mean = std::accumulate(regular.begin(), regular.end(), 0.0) / regular.size();
+  if (jitter) {
+    double ss = 0;
+    for (double g : regular) ss += (g - mean) * (g - mean);
+    *jitter = std::sqrt(ss / regular.size()) * 1e-6;
+  }
+  return mean * 1e-6;
 }
 
 // The setpoint in force at robot time `t` (us) after each command, per wheel: held until the
@@ -185,7 +201,7 @@ std::vector<double> CommandRate(const Series& s, const std::vector<std::array<do
 }
 
 // drive_lag. `s` and `tr` must outlive the layer.
-Layer DriveLagLayer(const Series& s, const Track& tr) {
+Layer DriveLagLayer(const Series& s, const Track& tr, const std::vector<DriveCommand>& commands) {
   const std::size_t n = tr.utime.size();
   const int nw = tr.wheels;
   const int k = tr.smooth_k;
@@ -216,6 +232,9 @@ Layer DriveLagLayer(const Series& s, const Track& tr) {
     return out;
   };
   L.regressor = CommandRate(s, s.speed_cmd);
+  // A lag shorter than the jitter of the command stamps (a controller's tick: when within it
+  // the robot took the command) cannot be told from that timing.
+  CommandPeriod(commands, &L.min_value);
   return L;
 }
 
@@ -328,7 +347,8 @@ bool JudgeLayer(const Layer& L, const LayerTest& test, int m, double alpha, doub
   o->p_adjusted = std::min(1.0, test.p * m * alpha / std::max(alpha_share, 1e-300));
   o->detectable = (NormalUpper(alpha_share / m) + NormalUpper(0.2)) * value_std;
   const bool at_null_edge = L.log_search && test.est > L.hi - 0.5;  // no limit inside the searched range
-  const bool significant = test.p * m < alpha_share && test.gain > kMinGain && !at_null_edge;
+  const bool below_resolution = !L.log_search && value < L.min_value;
+  const bool significant = test.p * m < alpha_share && test.gain > kMinGain && !at_null_edge && !below_resolution;
   if (significant) {
     o->status = CandidateStatus::kFound;
   } else if (!(test.sigma < L.plausible_sigma) || at_null_edge) {
@@ -346,6 +366,13 @@ bool JudgeLayer(const Layer& L, const LayerTest& test, int m, double alpha, doub
     }
   } else {
     o->status = CandidateStatus::kNotSignificant;
+    if (below_resolution) {
+      std::ostringstream note;
+      note.precision(3);
+      note << "shorter than the jitter of the command stamps (" << L.min_value << " s): not told from when the "
+           << "controller takes each command";
+      o->note = note.str();
+    }
   }
   return significant;
 }
@@ -451,7 +478,7 @@ void DiagnoseActuation(const RobotDescription& robot, const DiagnoseData& data,
   std::array<std::vector<Layer>, 2> layer_sets;
   std::array<double, 2> score{0, 0};
   for (int k = 0; k < 2; ++k) {
-    layer_sets[k].push_back(DriveLagLayer(profiles[k], tr));
+    layer_sets[k].push_back(DriveLagLayer(profiles[k], tr, data.commands));
     if (m > 1) layer_sets[k].push_back(SteeringRateLimitLayer(profiles[k], tr));
     for (const Layer& L : layer_sets[k]) score[k] += FitLogSse(L, profiles[k]);
   }

@@ -160,10 +160,11 @@ void Simulator::StepPhysics(double dt) {
     target = s.command.wheels;
   }
   // commands.between ramp: from the setpoints in force when the command came to the new ones
-  // over one command period (the step's end time: the setpoint this step drives toward).
+  // over one command period, at the step's middle (the mean of the linear ramp over the step: at
+  // its end the setpoint would lead the ramp by half a step, which reads as a timing error).
   const double ramp = !config_.command_ramp || !s.have_command
                           ? 1.0
-                          : std::min(1.0, (utime_ + dt * 1e6 - s.command_received) * 1e-6 * config_.command_rate_hz);
+                          : std::min(1.0, (utime_ + dt * 0.5e6 - s.command_received) * 1e-6 * config_.command_rate_hz);
   for (size_t i = 0; i < n; ++i) {
     WheelState& w = s.wheels[i];
     const double omega = live ? target.speed.at(i) : 0.0;
