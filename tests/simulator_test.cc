@@ -798,7 +798,9 @@ TEST(SimulatorTest, RampedSetpointReachesTheCommandOverOneCommandPeriod) {
     int checked = 0;
     for (const auto& w : Messages<agvcal::wheel_state_t>(sink, kWheelsChannel)) {
       const double since = (w.utime - t_step) * 1e-6;
-      const double expected = since <= 0 ? 0.0 : ramp ? target * std::min(1.0, since / 0.04) : target;
+      // A sample at a step's end reports the speed held over that step: the ramp at the step's
+      // middle (half the 1 ms step earlier).
+      const double expected = since <= 0 ? 0.0 : ramp ? target * std::min(1.0, (since - 0.0005) / 0.04) : target;
       for (int i = 0; i < 2; ++i) EXPECT_NEAR(w.velocity[i], expected, 1e-9 + 0.001 * target) << since;
       ++checked;
     }
