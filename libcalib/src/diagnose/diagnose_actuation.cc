@@ -176,15 +176,15 @@ Series CommandSeries(const RobotDescription& robot, const Track& tr, const std::
     s.chunk[i] = int(s.t[i]);
     // The setpoint's mean over [t_i, t_i+1] (a command rarely arrives on an encoder sample: taking
     // the value at t_i moves every step to the next sample, half an encoder period late on average).
+    // The steering angle is read, not integrated: its target over the interval is the setpoint
+    // at the interval's end (where the prediction is compared with the next reading).
     const double t0 = double(tr.utime[i]), t1 = i + 1 < n ? double(tr.utime[i + 1]) : t0;
-    s.speed_cmd[i] = s.steer_cmd[i] = {0, 0};
+    s.speed_cmd[i] = {0, 0};
     for (int k = 0; k < kSubsamples; ++k) {
       const Setpoints::Point p = setpoints.At(t0 + (k + 0.5) / kSubsamples * (t1 - t0), setpoints.size());
-      for (int w = 0; w < 2; ++w) {
-        s.speed_cmd[i][w] += p.speed[w] / kSubsamples;
-        s.steer_cmd[i][w] += p.steer[w] / kSubsamples;
-      }
+      for (int w = 0; w < 2; ++w) s.speed_cmd[i][w] += p.speed[w] / kSubsamples;
     }
+    s.steer_cmd[i] = setpoints.At(t1, setpoints.size()).steer;
   }
   return s;
 }
@@ -477,10 +477,16 @@ void DiagnoseActuation(const RobotDescription& robot, const DiagnoseData& data,
                                        CommandSeries(robot, tr, data.commands, options.block_s, true)};
   std::array<std::vector<Layer>, 2> layer_sets;
   std::array<double, 2> score{0, 0};
+  std::ostringstream per_layer;
+  per_layer.precision(8);
   for (int k = 0; k < 2; ++k) {
     layer_sets[k].push_back(DriveLagLayer(profiles[k], tr, data.commands));
     if (m > 1) layer_sets[k].push_back(SteeringRateLimitLayer(profiles[k], tr));
-    for (const Layer& L : layer_sets[k]) score[k] += FitLogSse(L, profiles[k]);
+    for (const Layer& L : layer_sets[k]) {
+      const double layer_score = FitLogSse(L, profiles[k]);
+      score[k] += layer_score;
+      per_layer << (k ? " ramped " : " held ") << L.name << " " << layer_score << ";";
+    }
   }
   const int chosen = score[1] < score[0] ? 1 : 0;
   const Series& s = profiles[chosen];
@@ -488,7 +494,7 @@ void DiagnoseActuation(const RobotDescription& robot, const DiagnoseData& data,
   report->notes.push_back(std::string("actuation: the setpoint ") +
                           (chosen ? "ramps between DRIVE_CMD messages" : "is held from one DRIVE_CMD to the next") +
                           " (chosen by the fit: log SSE " + std::to_string(score[0]) + " held, " +
-                          std::to_string(score[1]) + " ramped)");
+                          std::to_string(score[1]) + " ramped;" + per_layer.str() + ")");
   for (const Layer& L : layers) {
     const LayerTest test = TestLayer(L, s);
     CandidateOutcome o;
