@@ -24,6 +24,7 @@
 //       # DRIVE_CMD rate of the offline run (agvcal simulate), Hz; what the robot's controller
 //       # does between commands: `hold` each setpoint until the next, or `ramp` from the
 //       # setpoint in force to the new one over one command period (1 / rate), then hold
+//       # (each physics step holds the ramp's value at the step's middle)
 //   truth:                            # true values; anything omitted = nominal
 //     params: {drive_radius: 0.1153, ...}
 //     lidar2d: {x:, y:, yaw:}   lidar3d: {x:, y:, z:, roll:, pitch:, yaw:}
