@@ -231,7 +231,7 @@ def random_case(rng, drive, mde, sensors):
         value = round2(math.exp(rng.uniform(math.log(0.001), math.log(0.5))))
         mult = value / mde.get((drive, name), 0.0005)
     elif name == "scan_distortion":
-        value = round2(sensors["fov"] / (2 * math.pi) / sensors["scan_rate"])
+        value = math.floor(sensors["fov"] / (2 * math.pi) / sensors["scan_rate"] * 1e4) / 1e4  # <= 1 / rate
         mult = value / mde.get((drive, name), 0.01)
     elif name == "steering_rate_limit":
         value = round2(1.0 / mult)
