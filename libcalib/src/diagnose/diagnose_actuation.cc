@@ -177,14 +177,15 @@ Series CommandSeries(const RobotDescription& robot, const Track& tr, const std::
     // The setpoint's mean over [t_i, t_i+1] (a command rarely arrives on an encoder sample: taking
     // the value at t_i moves every step to the next sample, half an encoder period late on average).
     // The steering angle is read, not integrated: its target over the interval is the setpoint
-    // at the interval's end (where the prediction is compared with the next reading).
+    // just before the interval's end (where the prediction is compared with the next reading; a
+    // command stamped at that reading's time acts after it).
     const double t0 = double(tr.utime[i]), t1 = i + 1 < n ? double(tr.utime[i + 1]) : t0;
     s.speed_cmd[i] = {0, 0};
     for (int k = 0; k < kSubsamples; ++k) {
       const Setpoints::Point p = setpoints.At(t0 + (k + 0.5) / kSubsamples * (t1 - t0), setpoints.size());
       for (int w = 0; w < 2; ++w) s.speed_cmd[i][w] += p.speed[w] / kSubsamples;
     }
-    s.steer_cmd[i] = setpoints.At(t1, setpoints.size()).steer;
+    s.steer_cmd[i] = setpoints.At(std::max(t0, t1 - 1.0), setpoints.size()).steer;
   }
   return s;
 }
