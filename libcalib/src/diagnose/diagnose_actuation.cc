@@ -346,7 +346,8 @@ bool JudgeLayer(const Layer& L, const LayerTest& test, int m, double alpha, doub
   o->estimate = {value, value_std};
   o->p_value = test.p;
   o->p_adjusted = std::min(1.0, test.p * m * alpha / std::max(alpha_share, 1e-300));
-  o->detectable = (NormalUpper(alpha_share / m) + NormalUpper(0.2)) * value_std;
+  // Never below the timing resolution (a drive lag within the command stamps' jitter is not told).
+  o->detectable = std::max((NormalUpper(alpha_share / m) + NormalUpper(0.2)) * value_std, L.min_value);
   const bool at_null_edge = L.log_search && test.est > L.hi - 0.5;  // no limit inside the searched range
   const bool below_resolution = !L.log_search && value < L.min_value;
   const bool significant = test.p * m < alpha_share && test.gain > kMinGain && !at_null_edge && !below_resolution;
@@ -470,9 +471,8 @@ void DiagnoseActuation(const RobotDescription& robot, const DiagnoseData& data,
   }
   const Track tr = MakeTrack(robot, data.wheels);
   // Whether the controller holds each setpoint until the next command or ramps between
-  // commands, from the data: the profile whose layers, each at its best parameter, fit the
-  // fit blocks better (Gaussian log-likelihood per layer; both profiles have the same
-  // parameters). Held-setpoint models fitted to ramped setpoints bias the lag low by about
+  // commands, from the data: the profile under which the drive layer, at its best lag, fits the
+  // fit blocks better (Gaussian log-likelihood; both profiles have the same parameter). Held-setpoint models fitted to ramped setpoints bias the lag low by about
   // half a command period, and the other way round high.
   const std::array<Series, 2> profiles{CommandSeries(robot, tr, data.commands, options.block_s, false),
                                        CommandSeries(robot, tr, data.commands, options.block_s, true)};
@@ -485,7 +485,10 @@ void DiagnoseActuation(const RobotDescription& robot, const DiagnoseData& data,
     if (m > 1) layer_sets[k].push_back(SteeringRateLimitLayer(profiles[k], tr));
     for (const Layer& L : layer_sets[k]) {
       const double layer_score = FitLogSse(L, profiles[k]);
-      score[k] += layer_score;
+      // The speeds decide: they are compared integrated over each sample, so a sub-sample shift
+      // of when the controller applies a setpoint (a simulator's or controller's tick) hardly
+      // matters; the steering angle is read at instants and such a shift can outweigh the profile.
+      if (L.name == "drive_lag") score[k] += layer_score;
       per_layer << (k ? " ramped " : " held ") << L.name << " " << layer_score << ";";
     }
   }
