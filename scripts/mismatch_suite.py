@@ -13,6 +13,17 @@ the origin, any heading; `start_pose`), so the seeds are independent draws of th
 matcher's place-dependent error too, not only of the lidar noise on one route.
 
   scripts/mismatch-suite.sh [--seeds N] [--jobs J] [--out docs/mismatch-suite.md] [--quick]
+
+Randomized mode (--random N, docs/mismatch-suite.md "Randomized suite"): N recordings per drive
+(about a third of them controls), each drawing its sensors at random (lidar field of view
+180-360 deg, 270-1080 beams, 10-40 Hz scans, encoders 50-200 Hz with 1024-16384 ticks, range
+noise 0.5-3 cm, physics step 1-10 ms, commands 10-50 Hz held or ramped), its world (the
+warehouse with racks removed and boxes added at random), its start, one concealed effect at
+1x-20x the drive's detectable size (time offsets 1 ms - 0.5 s), all from the recording's seed;
+then the issue's targets are scored (right name at >= 2x and at 1-2x, controls clean, size
+within 15 % or 2 sigma, judged held-out measure >= 30 % lower).
+
+  scripts/mismatch-suite.sh --random 140 [--jobs J] [--out docs/mismatch-random.md] [--first-seed S]
 """
 import argparse
 import concurrent.futures as cf
@@ -67,15 +78,21 @@ def start_pose(seed):
     return f"start: {{x: {r * math.cos(a):.3f}, y: {r * math.sin(a):.3f}, theta: {rng.uniform(-math.pi, math.pi):.3f}}}"
 
 
+def seeded_line(line, seed):
+    """A top-level line of a drive's sim config for one seed: the robot file by absolute path,
+    the seed, the seed's start."""
+    if line.startswith("robot: ../robots/"):
+        return "robot: " + os.path.join(HERE, "config", "robots", line.split("/")[-1])
+    if line.startswith("seed:"):
+        return f"seed: {seed}"
+    if line.startswith("start:"):
+        return start_pose(seed)
+    return line
+
+
 def run_one(args, drive, scenario, effects, seed, extra_sensors=None, trajectory="default"):
     """Simulates and diagnoses one recording; returns the parsed REPORT.json (or an error)."""
     tag = f"{drive}_{scenario}_{seed}"
-    sim = os.path.join(args.work, tag + ".yaml")
-    log = os.path.join(args.work, tag + ".log")
-    out = os.path.join(args.work, tag + ".json")
-    if args.reuse and os.path.exists(out):  # a finished run of this work folder: score it again
-        with open(out) as f:
-            return json.load(f)
     with open(os.path.join(HERE, "config", "sims", drive + ".yaml")) as f:
         text = f.read()
     lines = []
@@ -83,12 +100,7 @@ def run_one(args, drive, scenario, effects, seed, extra_sensors=None, trajectory
     for line in text.splitlines():
         if line and not line.startswith(" "):
             section = line.split(":")[0]
-        if line.startswith("robot: ../robots/"):
-            line = "robot: " + os.path.join(HERE, "config", "robots", line.split("/")[-1])
-        elif line.startswith("seed:"):
-            line = f"seed: {seed}"
-        elif line.startswith("start:"):
-            line = start_pose(seed)
+        line = seeded_line(line, seed)
         for replacement in extra_sensors or []:
             if section == "sensors" and line.strip().startswith(replacement.split(":")[0] + ":"):
                 line = "  " + replacement
@@ -96,8 +108,19 @@ def run_one(args, drive, scenario, effects, seed, extra_sensors=None, trajectory
     if effects:
         lines.append("effects:")
         lines += ["  " + e for e in effects]
+    return simulate_and_diagnose(args, tag, "\n".join(lines) + "\n", drive, trajectory)
+
+
+def simulate_and_diagnose(args, tag, sim_text, drive, trajectory="default"):
+    """Writes the sim config, simulates, diagnoses blind; the parsed REPORT.json or an error."""
+    sim = os.path.join(args.work, tag + ".yaml")
+    log = os.path.join(args.work, tag + ".log")
+    out = os.path.join(args.work, tag + ".json")
+    if args.reuse and os.path.exists(out):
+        with open(out) as f:
+            return json.load(f)
     with open(sim, "w") as f:
-        f.write("\n".join(lines) + "\n")
+        f.write(sim_text)
     agvcal = os.path.join(args.build, "agvcal")
     r = subprocess.run([agvcal, "simulate", sim, log, "--trajectory", trajectory, "--quiet"],
                        stdout=subprocess.DEVNULL, stderr=subprocess.PIPE, text=True)
@@ -111,10 +134,71 @@ def run_one(args, drive, scenario, effects, seed, extra_sensors=None, trajectory
         return {"error": f"exit {r.returncode}: {r.stderr.strip()[:200]}"}
     with open(out) as f:
         rep = json.load(f)
-    rep.pop("intervals", None)  # keep the work folder small
+    rep.pop("intervals", None)
     with open(out, "w") as f:
         json.dump(rep, f)
     return rep
+
+
+def random_world(rng, path):
+    """The warehouse with each rack, machine and pillar kept with probability 0.7 and 3-10 boxes
+    added at random outside the free open area (x -10..10, y -9..9) and inside the hall."""
+    lines = []
+    with open(os.path.join(HERE, "config", "worlds", "warehouse.world")) as f:
+        for line in f:
+            if line.split()[:1] in (["box"], ["pillar"]) and rng.random() > 0.7:
+                continue
+            lines.append(line.rstrip("\n"))
+    for _ in range(rng.randint(3, 10)):
+        w, h = rng.uniform(0.4, 4.0), rng.uniform(0.4, 4.0)
+        while True:
+            x, y = rng.uniform(-21, 21 - w), rng.uniform(-16.5, 16.5 - h)
+            if x > 10.5 or x + w < -10.5 or y > 9.5 or y + h < -9.5:
+                break
+        lines.append(f"box {x:.2f} {y:.2f} {x + w:.2f} {y + h:.2f} {rng.uniform(1, 6):.1f}")
+    with open(path, "w") as f:
+        f.write("\n".join(lines) + "\n")
+
+
+def random_sensors(rng, drive):
+    """One recording's sensors, physics step and command profile (the ranges of issue 16)."""
+    enc = rng.uniform(50, 200)
+    scan = rng.uniform(10, 40)
+    # A sensor samples at most once per physics step: the step stays within the encoder period.
+    step = math.floor(min(rng.uniform(0.001, 0.010), 1.0 / enc) * 1e4) / 1e4
+    fov = math.radians(rng.uniform(180, 360))
+    d = {"enc_rate": round(enc, 1), "ticks": rng.randint(1024, 16384), "scan_rate": round(scan, 1),
+         "fov": round(fov, 4), "beams": rng.randint(270, 1080), "range_noise": round(rng.uniform(0.005, 0.03), 4),
+         "step": step, "cmd_rate": round(rng.uniform(10, 50), 1),
+         "between": rng.choice(["hold", "ramp"])}
+    d["cmd_rate"] = min(d["cmd_rate"], round(1.0 / d["step"], 1))
+    return d
+
+
+def random_sim_text(drive, seed, sensors, world_path, effects):
+    phys = 1.0 / sensors["step"]
+    with open(os.path.join(HERE, "config", "sims", drive + ".yaml")) as f:
+        text = f.read()
+    out, section = [], ""
+    for line in text.splitlines():
+        if line and not line.startswith(" "):
+            section = line.split(":")[0]
+        if section == "sensors" or line.startswith("#"):
+            continue
+        out.append(f"world: {world_path}" if line.startswith("world:") else seeded_line(line, seed))
+    steer = ", steer_resolution: 0.0002, steer_noise: 0.0002" if DRIVES[drive]["steered"] else ""
+    out += [f"physics_step: {sensors['step']}",
+            f"commands: {{rate: {sensors['cmd_rate']}, between: {sensors['between']}}}",
+            "sensors:",
+            f"  wheels: {{rate: {sensors['enc_rate']}, ticks_per_rev: {sensors['ticks']}{steer}}}",
+            f"  lidar2d: {{rate: {sensors['scan_rate']}, beams: {sensors['beams']}, fov: {sensors['fov']}, "
+            f"range_noise: {sensors['range_noise']}}}",
+            f"  imu: {{rate: {min(200.0, math.floor(phys * 10) / 10)}}}",
+            f"  ground_truth: {{rate: {min(100.0, math.floor(phys * 10) / 10)}}}"]
+    if effects:
+        out.append("effects:")
+        out += ["  " + e for e in effects]
+    return "\n".join(out) + "\n"
 
 
 def drive_robot(drive):
@@ -129,6 +213,165 @@ def named(rep):
     return sorted(e["name"] for e in rep.get("effects", []))
 
 
+# Effects of the randomized suite per drive (time_offset drawn 1 ms - 0.5 s, the rest 1x-20x
+# the drive's detectable size from its controls; steering_rate_limit: 1 rad/s / multiplier;
+# scan_distortion: the real sweep of the drawn field of view at the drawn scan rate).
+RANDOM_EFFECTS = ["time_offset", "longitudinal_slip", "lateral_slip", "wheel_eccentricity", "steering_backlash",
+                  "scan_distortion", "drive_lag", "steering_rate_limit"]
+
+
+def random_case(rng, drive, mde, sensors):
+    """The concealed effect of one recording: (name, value, multiplier) or None for a control."""
+    names = [n for n in RANDOM_EFFECTS if DRIVES[drive]["steered"] or n not in STEERED_ONLY]
+    if rng.random() < 1.0 / 3.0:
+        return None
+    name = rng.choice(names)
+    mult = math.exp(rng.uniform(0, math.log(20)))
+    if name == "time_offset":
+        value = round2(math.exp(rng.uniform(math.log(0.001), math.log(0.5))))
+        mult = value / mde.get((drive, name), 0.0005)
+    elif name == "scan_distortion":
+        value = math.floor(sensors["fov"] / (2 * math.pi) / sensors["scan_rate"] * 1e4) / 1e4  # <= 1 / rate
+        mult = value / mde.get((drive, name), 0.01)
+    elif name == "steering_rate_limit":
+        value = round2(1.0 / mult)
+    elif name == "drive_lag":
+        value = round2(min(mult * mde.get((drive, name), 0.01), 0.3))
+    else:
+        if (drive, name) not in mde:
+            return None
+        value = round2(mult * mde[(drive, name)])
+    return name, value, mult
+
+
+def score_effect(e, truth):
+    """Size within 15 % or 2 sigma; the judged held-out measure's reduction (None if absent)."""
+    est = e["params"][EFFECTS[e["name"]]]
+    tv = truth[e["name"]]
+    size_ok = abs(est["value"] - tv) <= 0.15 * abs(tv) or (est["std"] and abs(est["value"] - tv) <= 2 * est["std"])
+    b, a = e["heldout_rms_before"], e["heldout_rms_after"]
+    if e.get("heldout_measure") == "drift" and e.get("heldout_drift", {}).get("rms_before"):
+        b, a = e["heldout_drift"]["rms_before"], e["heldout_drift"]["rms_after"]
+    elif e.get("heldout_measure") == "stretch" and e.get("heldout_stretch", {}).get("rms_before"):
+        b, a = e["heldout_stretch"]["rms_before"], e["heldout_stretch"]["rms_after"]
+    return size_ok, (1 - a / b) if b else None
+
+
+def random_suite(args, drives, pool):
+    """The randomized suite (--random N): see the module's doc string."""
+    per_drive = args.random
+    # 1. Detectable sizes: from controls with random sensors (seeds first_seed + 0 ..).
+    cases = []
+    for d in drives:
+        for k in range(per_drive):
+            cases.append((d, args.first_seed + k))
+    def one(d, seed):
+        rng = random.Random(f"{d}-{seed}")
+        sensors = random_sensors(rng, d)
+        world = os.path.join(args.work, f"{d}_r{seed}.world")
+        random_world(rng, world)
+        return rng, sensors, world
+    mde = {}
+    calib_jobs = {}
+    for d in drives:  # a few controls per drive fix the detectable sizes first
+        for k in range(max(3, min(8, per_drive // 6))):
+            seed = args.first_seed + 100000 + k
+            rng, sensors, world = one(d, seed)
+            text = random_sim_text(d, seed, sensors, world, [])
+            calib_jobs[pool.submit(simulate_and_diagnose, args, f"{d}_rcal_{seed}", text, d)] = d
+    det = {}
+    for fut in cf.as_completed(calib_jobs):
+        d = calib_jobs[fut]
+        for c in fut.result().get("candidates", []):
+            if c["name"] in EFFECTS and c.get("detectable"):
+                det.setdefault((d, c["name"]), []).append(c["detectable"])
+    mde = {k: sorted(v)[len(v) // 2] for k, v in det.items()}
+    jobs = {}
+    for d, seed in cases:
+        rng, sensors, world = one(d, seed)
+        case = random_case(rng, d, mde, sensors)
+        effects, truth = [], {}
+        if case:
+            name, value, mult = case
+            effects = [effect_yaml(name, value, DRIVES[d]["wheel"])]
+            truth = {name: value}
+        text = random_sim_text(d, seed, sensors, world, effects)
+        jobs[pool.submit(simulate_and_diagnose, args, f"{d}_r{seed}", text, d)] = (d, seed, sensors, case, truth)
+    rows = []
+    for fut in cf.as_completed(jobs):
+        d, seed, sensors, case, truth = jobs[fut]
+        rep = fut.result()
+        row = {"drive": d, "seed": seed, "sensors": sensors, "truth": truth,
+               "multiplier": case[2] if case else None, "error": rep.get("error")}
+        if "error" not in rep:
+            found = named(rep)
+            row["named"] = found
+            row["right"] = found == sorted(truth)
+            for e in rep.get("effects", []):
+                if e["name"] in truth:
+                    row["size_ok"], row["heldout_reduction"] = score_effect(e, truth)
+                    row["estimate"] = e["params"][EFFECTS[e["name"]]]
+        rows.append(row)
+    return sorted(rows, key=lambda r: (r["drive"], r["seed"])), mde
+
+
+def random_report(args, rows, mde):
+    pct = lambda a, b: f"{100.0 * a / b:.1f} % ({a}/{b})" if b else "-"
+    ok = [r for r in rows if not r["error"]]
+    controls = [r for r in ok if not r["truth"]]
+    at2 = [r for r in ok if r["truth"] and r["multiplier"] >= 2]
+    at1 = [r for r in ok if r["truth"] and r["multiplier"] < 2]
+    named_right = [r for r in ok if r["truth"] and r["right"]]
+    size = [r for r in named_right if "size_ok" in r]
+    held = [r for r in named_right if r.get("heldout_reduction") is not None]
+    figures = [
+        ("right name, effect >= 2x detectable", sum(r["right"] for r in at2), len(at2), 0.95),
+        ("right name, effect 1x-2x detectable", sum(r["right"] for r in at1), len(at1), 0.80),
+        ("no effect declared on controls", sum(r["right"] for r in controls), len(controls), 0.99),
+        ("size within 15 % or 2 sigma (named right)", sum(r["size_ok"] for r in size), len(size), 0.90),
+        ("judged held-out measure >= 30 % lower (named right)", sum(r["heldout_reduction"] >= 0.3 for r in held),
+         len(held), 0.90),
+    ]
+    lines = ["# Randomized concealed-effect suite", "",
+             "Generated by `scripts/mismatch-suite.sh " + " ".join(sys.argv[1:]) + "`: every recording draws its",
+             "sensors, physics step, command profile, world, start and concealed effect from its seed",
+             "(scripts/mismatch_suite.py `random_sensors`, `random_world`, `random_case`).", "",
+             f"Recordings: {len(rows)} ({len(rows) - len(ok)} failed to run), controls {len(controls)}.", "",
+             "| figure | measured | target | met |", "|---|---|---|---|"]
+    for label, a, b, target in figures:
+        met = "yes" if b and a / b >= target else ("-" if not b else "no")
+        lines.append(f"| {label} | {pct(a, b)} | {100 * target:.0f} % | {met} |")
+    lines += ["", "Detectable sizes (median over the random controls used to set the sizes): " +
+              ", ".join(f"{d} {n} {v:.3g}" for (d, n), v in sorted(mde.items())), "",
+              "| drive | seed | truth | x detectable | named | estimate | held-out reduction | sensors |",
+              "|---|---|---|---|---|---|---|---|"]
+    for r in rows:
+        truth = ", ".join(f"{k} {v:g}" for k, v in r["truth"].items()) or "none"
+        est = r.get("estimate")
+        s = r["sensors"]
+        sens = (f"fov {math.degrees(s['fov']):.0f} deg, {s['beams']} beams, {s['scan_rate']} Hz, enc {s['enc_rate']} Hz "
+                f"{s['ticks']} ticks, noise {100 * s['range_noise']:.1f} cm, step {1000 * s['step']:.1f} ms, "
+                f"cmd {s['cmd_rate']} Hz {s['between']}")
+        lines.append(f"| {r['drive']} | {r['seed']} | {truth} | "
+                     f"{'-' if r['multiplier'] is None else format(r['multiplier'], '.1f')} | "
+                     f"{r['error'][:60] if r['error'] else (', '.join(r.get('named', [])) or 'nothing')} | "
+                     f"{'-' if not est else format(est['value'], '.3g') + ' ± ' + format(est['std'], '.2g')} | "
+                     f"{'-' if r.get('heldout_reduction') is None else format(100 * r['heldout_reduction'], '.0f') + ' %'} | "
+                     f"{sens} |")
+    return "\n".join(lines) + "\n"
+
+
+def write_outputs(args, text, rows):
+    """The Markdown report to --out, the rows to --json, the report to stdout."""
+    if args.out:
+        with open(args.out, "w") as f:
+            f.write(text)
+    if args.json:
+        with open(args.json, "w") as f:
+            json.dump(rows, f, indent=1)
+    print(text)
+
+
 def main():
     ap = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
     ap.add_argument("--build", default=os.environ.get("AGVCAL_BIN", os.path.join(HERE, "build")))
@@ -141,6 +384,8 @@ def main():
     ap.add_argument("--reuse", action="store_true", help="reuse the REPORT.json already in --work")
     ap.add_argument("--quick", action="store_true", help="CI size: forklift and diff drive, few scenarios")
     ap.add_argument("--drives", default=",".join(DRIVES))
+    ap.add_argument("--random", type=int, default=0, help="randomized suite: recordings per drive")
+    ap.add_argument("--first-seed", type=int, default=1, help="randomized suite: seed of the first recording")
     args = ap.parse_args()
     args.work = args.work or tempfile.mkdtemp(prefix="mismatch-suite-")
     os.makedirs(args.work, exist_ok=True)
@@ -149,6 +394,10 @@ def main():
     if args.quick:
         drives = [d for d in drives if d in ("forklift", "diff_robot")]
     pool = cf.ThreadPoolExecutor(max_workers=args.jobs)
+    if args.random:
+        rows, mde = random_suite(args, drives, pool)
+        write_outputs(args, random_report(args, rows, mde), rows)
+        return
 
     # 1. Controls without any effect: false alarms, and the detectable sizes.
     jobs = {}
@@ -294,13 +543,7 @@ def main():
                          f" | {nothing} | {errors} |")
     text = "\n".join(lines + confusion) + "\n"
     text += f"\nWork folder (REPORT.json of every run): `{args.work}`.\n" if not args.out else ""
-    if args.out:
-        with open(args.out, "w") as f:
-            f.write(text)
-    if args.json:
-        with open(args.json, "w") as f:
-            json.dump(rows, f, indent=1)
-    print(text)
+    write_outputs(args, text, rows)
     # Exit status for CI: every named effect right on the quick set.
     if args.quick:
         bad = [k for k in ordered if any("error" in r for r in results[k])]

@@ -9,6 +9,7 @@
 #include <unistd.h>
 
 #include <algorithm>
+#include <array>
 #include <cmath>
 #include <cstdio>
 #include <filesystem>
@@ -214,6 +215,51 @@ TEST(Diagnose, DriveLagInTheActuationLayer) {
   const DiagnoseReport r = DiagnoseSim(c);
   ExpectFound(r, "drive_lag", "tau_s", 0.05);
   EXPECT_EQ(Find(r, "drive_lag")->layer, "actuation");
+}
+
+// A controller that ramps the setpoint between DRIVE_CMD messages (commands.between: ramp, at
+// 33 Hz, out of step with the 100 Hz encoders): a model that holds each command came out
+// 0.087-0.092 s for 0.12 s on such recordings; the diagnosis decides hold or ramp from the data.
+TEST(Diagnose, DriveLagWhenTheSetpointRampsBetweenCommands) {
+  SimConfig c = Sim("diff_robot", 21);
+  c.command_ramp = true;
+  c.command_rate_hz = 33.0;
+  c.effects.drive_lag_tau_s = 0.12;
+  const DiagnoseReport r = DiagnoseSim(c);
+  const FoundEffect* e = Find(r, "drive_lag");
+  ASSERT_NE(e, nullptr) << "named: " << Named(r);
+  EXPECT_NEAR(e->params.at("tau_s").value, 0.12, 0.012);
+  EXPECT_EQ(r.effects.size(), 1u) << Named(r);
+  EXPECT_NE(std::find_if(r.notes.begin(), r.notes.end(),
+                         [](const std::string& n) { return n.find("ramps between DRIVE_CMD") != std::string::npos; }),
+            r.notes.end());
+  // And the same controller without a lag: no drive lag (a held model would see one).
+  c.effects.drive_lag_tau_s = 0.0;
+  const DiagnoseReport clean = DiagnoseSim(c);
+  EXPECT_EQ(Find(clean, "drive_lag"), nullptr) << DiagnoseSummaryText(clean);
+}
+
+// A wet patch: longitudinal slip 0.08 s^2/m inside a 5 x 3 m box of the floor, none outside.
+// Named from the regions of the route, with its box (the route starts at the world origin
+// heading along x, so the odometry frame is the world's); the box must cover at least half of
+// the patch (intersection over the patch's area), on the part of the floor the route crosses.
+TEST(Diagnose, LongitudinalSlipConfinedToAWetPatch) {
+  SimConfig c = Sim("diff_robot", 1);
+  c.effects.longitudinal_slip_per_accel = 0.08;
+  c.effects.longitudinal_slip_region = std::array<double, 4>{-2.0, -3.0, 3.0, 0.0};
+  const DiagnoseReport r = DiagnoseSim(c);
+  const FoundEffect* e = Find(r, "longitudinal_slip");
+  ASSERT_NE(e, nullptr) << "named: " << Named(r) << "\n" << DiagnoseSummaryText(r);
+  ASSERT_TRUE(e->region.has_value());
+  const auto& b = *e->region;
+  const double ix = std::max(0.0, std::min(b[2], 3.0) - std::max(b[0], -2.0));
+  const double iy = std::max(0.0, std::min(b[3], 0.0) - std::max(b[1], -3.0));
+  EXPECT_GE(ix * iy / 15.0, 0.5) << "region " << b[0] << " " << b[1] << " " << b[2] << " " << b[3];
+  EXPECT_TRUE(NearTruth("slip_per_accel", e->params.at("slip_per_accel"), 0.08));
+  EXPECT_LT(e->p_adjusted, 0.01);
+  EXPECT_EQ(r.effects.size(), 1u) << Named(r);
+  const std::string json = DiagnoseReportJson(r);
+  EXPECT_NE(json.find("\"region\""), std::string::npos);
 }
 
 TEST(Diagnose, ScanDistortionWhenScansDeclareNoTiming) {

@@ -781,6 +781,68 @@ TEST(SimulatorTest, DriveLagIsFirstOrder) {
   EXPECT_GT(checked, 100);
 }
 
+// commands.between: ramp: the setpoint moves linearly from the one in force to the new
+// command over one command period (1 / commands.rate), then holds; hold steps at once.
+TEST(SimulatorTest, RampedSetpointReachesTheCommandOverOneCommandPeriod) {
+  const double vx = 0.3, r_nom = 0.075, target = vx / r_nom;
+  for (const bool ramp : {false, true}) {
+    SCOPED_TRACE(ramp ? "ramp" : "hold");
+    Simulator sim(Parse(std::string(kDiffStraight) + "commands: {rate: 25, between: " + (ramp ? "ramp" : "hold") +
+                        "}\n"));
+    EXPECT_EQ(sim.config().command_rate_hz, 25.0);
+    MemorySink sink;
+    const int64_t t_step = kStart + Us(0.2);
+    sim.AdvanceTo(t_step, &sink);
+    sim.ApplyCommand(TwistCommand(vx, 0.0));
+    sim.AdvanceTo(t_step + Us(0.2), &sink);
+    int checked = 0;
+    for (const auto& w : Messages<agvcal::wheel_state_t>(sink, kWheelsChannel)) {
+      const double since = (w.utime - t_step) * 1e-6;
+      // A sample at a step's end reports the speed held over that step: the ramp at the step's
+      // middle (half the 1 ms step earlier).
+      const double expected = since <= 0 ? 0.0 : ramp ? target * std::min(1.0, (since - 0.0005) / 0.04) : target;
+      for (int i = 0; i < 2; ++i) EXPECT_NEAR(w.velocity[i], expected, 1e-9 + 0.001 * target) << since;
+      ++checked;
+    }
+    EXPECT_GT(checked, 30);
+  }
+}
+
+// physics_step: the integration step; sensors sample at most once per step, at its end.
+TEST(SimulatorTest, PhysicsStepSetsTheSampleGrid) {
+  Simulator sim(Parse(std::string(kDiffStraight) + "physics_step: 0.007\n"));
+  MemorySink sink;
+  sim.ApplyCommand(TwistCommand(0.3, 0.0));
+  sim.AdvanceTo(kStart + Us(1.0), &sink);
+  const auto wheels = Messages<agvcal::wheel_state_t>(sink, kWheelsChannel);
+  ASSERT_GT(wheels.size(), 50u);
+  for (const auto& w : wheels) EXPECT_EQ((w.utime - kStart) % 7000, 0) << w.utime - kStart;
+  // 100 Hz wheels on a 7 ms grid: every 7 or 14 ms, 100 a second on average.
+  EXPECT_NEAR(double(wheels.size()), 100.0, 2.0);
+  EXPECT_NEAR(sim.true_pose().x, 0.3 * 1.0, 0.02);
+}
+
+// region: longitudinal slip acts only while the reference point is inside the box.
+TEST(SimulatorTest, LongitudinalSlipOnlyInsideItsRegion) {
+  const double k = 0.05, accel = 0.5, top = 0.5, radius = 0.075;
+  for (const bool inside : {true, false}) {
+    SCOPED_TRACE(inside ? "inside" : "outside");
+    Simulator sim(Parse(std::string(kDiffStraight) + "effects: {longitudinal_slip: {slip_per_accel: 0.05, region: " +
+                        (inside ? "[-1, -1, 3, 1]" : "[2, -1, 5, 1]") + "}}\n"));
+    MemorySink sink;
+    int64_t t = kStart + Us(0.1);
+    sim.AdvanceTo(t, &sink);
+    const int64_t start = t;
+    for (int64_t s = 0; s < Us(top / accel); s += 1000) {
+      sim.ApplyCommand(TwistCommand(accel * (s + 1000) * 1e-6, 0.0));
+      sim.AdvanceTo(t += 1000, &sink);
+    }
+    sim.AdvanceTo(t += Us(0.5), &sink);
+    const Travel travel = StraightTravel(sink, start, t, radius);
+    EXPECT_NEAR(travel.wheels - travel.truth, inside ? k * top * top / 2.0 : 0.0, 0.02 * k * top * top / 2.0);
+  }
+}
+
 TEST(SimulatorTest, SteeringRateLimitRampsTheEncoderReading) {
   const double rate = 0.5, target = 0.4;
   Simulator sim(
@@ -1054,6 +1116,20 @@ TEST(SimulatorTest, ConfigErrorsNameLineAndProblem) {
           "effects: {scan_distortion: {scan_period_s: 0.1}}\n");
   });
   EXPECT_NE(spread.find("time between scans"), std::string::npos) << spread;
+}
+
+TEST(SimulatorTest, RegionCommandsAndPhysicsStepErrors) {
+  const std::string bad = ErrorOf([] {
+    Parse("robot: ../robots/diff_robot.yaml\n"
+          "effects: {lateral_slip: {gain: 0.1, region: [3, 0, 1, 2]}}\n");
+  });
+  EXPECT_NE(bad.find("x0 < x1"), std::string::npos) << bad;
+  const std::string between = ErrorOf([] { Parse("robot: ../robots/diff_robot.yaml\ncommands: {between: ramps}\n"); });
+  EXPECT_NE(between.find("hold or ramp"), std::string::npos) << between;
+  const std::string step = ErrorOf([] {
+    Parse("robot: ../robots/diff_robot.yaml\nphysics_step: 0.01\nsensors: {wheels: {rate: 200}}\n");
+  });
+  EXPECT_NE(step.find("physics rate"), std::string::npos) << step;
 }
 
 TEST(SimulatorTest, RelativeWorldFileResolvesAgainstTheConfigDirectory) {

@@ -252,6 +252,9 @@ class Diagnoser {
   std::vector<HeldoutStretch> HeldoutStretches(const Candidate& c, const Model& with, const Model& without, int comp) const;
   Localized Localize(const Candidate& c, const Model& with, const Model& without) const;
   void FindUnexplained(DiagnoseReport* report) const;
+  // Floor effects not found over the whole recording, tested over regions of the route.
+  void TestRegions(const std::vector<Candidate>& cands, const Fit& current, const SelectionLevels& levels,
+                   DiagnoseReport* report) const;
 
   const RobotDescription& robot_;
   const DiagnoseData& data_;
@@ -924,6 +927,91 @@ void Diagnoser::FindUnexplained(DiagnoseReport* report) const {
   }
 }
 
+// Effects of the floor (longitudinal and lateral slip) that the whole recording did not show,
+// tested over boxes of the route in the odometry frame (diagnose_region.cc): the box most
+// significant on the fit blocks, Bonferroni over the boxes and the catalogue's share, confirmed
+// on the held-out intervals inside it. Linearised at the current model; reported with its box.
+void Diagnoser::TestRegions(const std::vector<Candidate>& cands, const Fit& current, const SelectionLevels& levels,
+                            DiagnoseReport* report) const {
+  std::vector<int> active;  // the calibration's free parameters
+  for (int i = 0; i < num_params_; ++i)
+    if (std::find(constant_params_.begin(), constant_params_.end(), i) == constant_params_.end()) active.push_back(i);
+  const double s = std::sqrt(s2_);
+  for (CandidateOutcome& o : report->candidates) {
+    if (o.status == CandidateStatus::kFound || (o.name != "longitudinal_slip" && o.name != "lateral_slip")) continue;
+    const auto c = std::find_if(cands.begin(), cands.end(), [&](const Candidate& k) { return k.name == o.name; });
+    if (c == cands.end()) continue;
+    const int b = c->beta[0];
+    std::vector<RegionInterval> in;
+    std::vector<std::size_t> index;  // into intervals_ and report->intervals
+    // Outliers too: a patch's slip is many sigma per interval, and the gate at the whole
+    // recording's scale sets exactly those intervals aside; a failed match stays harmless
+    // (alone in a box its own scatter is its variance, so its Wald statistic stays near 1).
+    for (std::size_t k = 0; k < intervals_.size(); ++k) {
+      const Interval& it = intervals_[k];
+      double r[3];
+      Jacobians jac;
+      Residual(it, current.m, r, &jac);
+      RegionInterval ri;
+      ri.x = report->intervals[k].motion.x, ri.y = report->intervals[k].motion.y, ri.heldout = it.heldout;
+      ri.r = Eigen::Vector3d(r[0], r[1], r[2]) / s;
+      ri.g = jac.beta.col(b) / s;
+      ri.A.resize(3, int(active.size()) + 3);
+      for (std::size_t a = 0; a < active.size(); ++a) ri.A.col(a) = jac.params.col(active[a]) / s;
+      ri.A.rightCols(3) = jac.mount / s;
+      in.push_back(ri), index.push_back(k);
+    }
+    // Physical sign: a floor that slips loses ground while accelerating (slip_per_accel > 0)
+    // and lets the robot skid outwards in a turn (gain > 0).
+    const RegionTest t = BestRegion(in, options_.hac_lags, 1.0, +1);
+    const double share = levels.alpha / std::max(1, levels.candidates);
+    if (!(t.p_adjusted < share) || !t.heldout_confirmed) {
+      std::ostringstream note;
+      note.precision(3);
+      note << "not confined to a region either: the best of " << t.boxes << " boxes of the route (x " << t.box[0]
+           << " .. " << t.box[2] << ", y " << t.box[1] << " .. " << t.box[3] << " m) gives " << t.beta << " +- "
+           << t.std << ", p = " << t.p_adjusted << " over the boxes, held-out z = " << t.heldout_z;
+      o.note += (o.note.empty() ? "" : "; ") + note.str();
+      continue;
+    }
+    // Found: its size, where it acts and the held-out residual inside the box without and with it.
+    FoundEffect fe;
+    fe.name = o.name, fe.layer = o.layer;
+    fe.params[c->keys[0]] = {t.beta, t.std};
+    fe.wald = t.wald, fe.p_value = t.p, fe.p_adjusted = std::min(1.0, t.p_adjusted / share * levels.alpha);
+    fe.region = t.box;
+    fe.component = o.name == "lateral_slip" ? "y" : "x";
+    const int comp = fe.component == "y" ? 1 : 0;
+    std::vector<TimeSpan> spans;
+    std::vector<double> rb, ra, all_b, all_a;
+    Model with = current.m;
+    with.beta[b] += t.beta;
+    for (std::size_t j = 0; j < in.size(); ++j) {
+      if (!t.inside[j] || in[j].g.squaredNorm() == 0) continue;
+      const Interval& it = intervals_[index[j]];
+      spans.push_back({it.motion->utime_start, it.motion->utime_end});
+      if (!it.heldout) continue;
+      rb.push_back(ErrorOf(it, current.m)[comp]);
+      ra.push_back(ErrorOf(it, with)[comp]);
+    }
+    fe.where = MergeSpans(spans, 1000000);
+    fe.heldout_rms_before = fe.heldout_rms_all_before = Rms(rb);
+    fe.heldout_rms_after = fe.heldout_rms_all_after = Rms(ra);
+    std::ostringstream regime;
+    regime.precision(3);
+    regime << "only inside the region x " << t.box[0] << " .. " << t.box[2] << " m, y " << t.box[1] << " .. "
+           << t.box[3] << " m of the odometry frame (best of " << t.boxes << " boxes; held-out estimate there "
+           << t.heldout_beta << ", z = " << t.heldout_z << ")";
+    fe.regime = regime.str();
+    fe.regressor = c->regressor;
+    report->effects.push_back(fe);
+    o.status = CandidateStatus::kFound;
+    o.estimate = {t.beta, t.std};
+    o.p_value = t.p, o.p_adjusted = fe.p_adjusted;
+    o.note = "confined to a region of the floor: " + fe.regime;
+  }
+}
+
 // The catalogue's confusable pairs, with the motion that separates each.
 const std::vector<ConfusablePair>& Confusable() {
   static const auto* const kConfusable = new std::vector<ConfusablePair>{
@@ -1084,6 +1172,7 @@ DiagnoseReport Diagnoser::Select(const Model& start, const CalibrationResult& ca
   ReportFound(cands, selection, levels, current, log_n, &report);
   ReportCalibration(f0, current, cal, &report);
   report.candidates = verdicts.outcomes;
+  TestRegions(cands, current, levels, &report);
   final_ = current.m;
   alternatives_.clear();
   for (const Fit& f : single) alternatives_.push_back(f.m);

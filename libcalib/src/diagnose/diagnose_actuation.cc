@@ -20,7 +20,8 @@ namespace calib::diag {
 namespace {
 
 constexpr double kMinCommands = 20;
-constexpr double kMinGain = 0.05;  // practical floor: held-out RMS at least 5 % lower
+constexpr double kMinGain = 0.05;
+constexpr int kSubsamples = 8;  // per encoder sample, for the setpoint's mean over it  // practical floor: held-out RMS at least 5 % lower
 
 struct Series {
   std::vector<double> t;                       // s from the first sample
@@ -28,6 +29,7 @@ struct Series {
   std::vector<std::array<double, 2>> speed_cmd, steer_cmd;  // setpoint held over [t_i, t_i+1]
   std::vector<bool> heldout;
   std::vector<int> chunk;                      // one-second chunk index
+  bool ramp = false;  // the setpoints ramp between commands (Setpoints) rather than hold
 };
 
 // Minimises f over [lo, hi] by golden section.
@@ -52,6 +54,7 @@ struct Layer {
   double lo = 0, hi = 1;  // search range (in the search variable)
   bool log_search = false;
   double plausible_sigma = 0.5;
+  double min_value = 0;  // below it the effect cannot be told from the data's timing
   std::vector<double> regressor;  // per sample, for the signature
   std::vector<bool> use;          // wheels used
 };
@@ -67,39 +70,122 @@ double Sse(const Layer& L, const std::vector<std::array<double, 2>>& pred, const
   return sum;
 }
 
-// The commands held over the wheel samples (a command lapses after its timeout), and the
-// fit / held-out blocks.
+// The command period, s (what a ramping controller ramps over): the mean time between commands
+// within half to one and a half times the median (stamps jitter around the period, e.g. by
+// the controller's tick, so the median alone can be one jittered value; pauses are left out);
+// `jitter`: the RMS deviation of those gaps from it, s.
+double CommandPeriod(const std::vector<DriveCommand>& commands, double* jitter = nullptr) {
+  std::vector<int64_t> gaps;
+  for (std::size_t c = 1; c < commands.size(); ++c)
+    if (commands[c].utime > commands[c - 1].utime) gaps.push_back(commands[c].utime - commands[c - 1].utime);
+  if (jitter) *jitter = 0;
+  if (gaps.empty()) return 0.05;
+  std::vector<int64_t> sorted = gaps;
+  std::nth_element(sorted.begin(), sorted.begin() + sorted.size() / 2, sorted.end());
+  const double median = double(sorted[sorted.size() / 2]);
+  std::vector<double> regular;
+  for (int64_t g : gaps)
+    if (g >= 0.5 * median && g <= 1.5 * median) regular.push_back(double(g));
+  const double mean = std::accumulate(regular.begin(), regular.end(), 0.0) / regular.size();
+  if (jitter) {
+    double ss = 0;
+    for (double g : regular) ss += (g - mean) * (g - mean);
+    *jitter = std::sqrt(ss / regular.size()) * 1e-6;
+  }
+  return mean * 1e-6;
+}
+
+// The setpoint in force at robot time `t` (us) after each command, per wheel: held until the
+// next command (`ramp` false), or ramped linearly from the setpoint in force when the command
+// came to the new one over `period` s, then held. A command lapses after its timeout (speed 0,
+// steering held).
+class Setpoints {
+ public:
+  Setpoints(const RobotDescription& robot, const Track& tr, const std::vector<DriveCommand>& commands, bool ramp)
+      : commands_(commands), ramp_(ramp), period_us_(CommandPeriod(commands) * 1e6), nw_(tr.wheels) {
+    first_steer_ = {tr.steer[0][0], tr.steer[0][1]};
+    const auto model = MakeDriveModel(robot);
+    std::array<double, 2> speed{0, 0}, steer{tr.steer[0][0], tr.steer[0][1]};
+    for (const DriveCommand& cmd : commands) {
+      // What was in force when this command came (the previous one's ramp, or a lapse).
+      if (!to_.empty()) {
+        const Point now = At(cmd.utime, to_.size());
+        speed = now.speed, steer = now.steer;
+      }
+      from_.push_back({speed, steer});
+      Point target{{0, 0}, steer};
+      if (cmd.mode != DriveMode::kStop) {
+        const WheelSetpoint sp = cmd.mode == DriveMode::kTwist ? model->Inverse(cmd.twist) : cmd.wheels;
+        for (int w = 0; w < nw_; ++w) {
+          target.speed[w] = sp.speed.at(w);
+          if (tr.steered[w] && w < int(sp.steer.size())) target.steer[w] = sp.steer[w];
+        }
+      }
+      to_.push_back(target);
+    }
+  }
+  struct Point {
+    std::array<double, 2> speed, steer;
+  };
+  // At time t (us), given the commands up to (not including) index `end`.
+  Point At(double t, std::size_t end) const {
+    const std::size_t c = std::upper_bound(commands_.begin(), commands_.begin() + end, t,
+                                           [](double v, const DriveCommand& k) { return v < double(k.utime); }) -
+                          commands_.begin();
+    if (c == 0) return {{0, 0}, {first_steer_[0], first_steer_[1]}};
+    const DriveCommand& cmd = commands_[c - 1];
+    const Point& to = to_[c - 1];
+    if (t - cmd.utime > cmd.timeout_s * 1e6) return {{0, 0}, to.steer};
+    const double f = ramp_ ? std::min(1.0, (t - cmd.utime) / period_us_) : 1.0;
+    if (f >= 1.0) return to;
+    Point p;
+    for (int w = 0; w < 2; ++w) {
+      p.speed[w] = from_[c - 1].speed[w] + f * (to.speed[w] - from_[c - 1].speed[w]);
+      p.steer[w] = from_[c - 1].steer[w] + f * (to.steer[w] - from_[c - 1].steer[w]);
+    }
+    return p;
+  }
+  std::size_t size() const { return to_.size(); }
+
+ private:
+  std::array<double, 2> first_steer_{0, 0};
+  const std::vector<DriveCommand>& commands_;
+  bool ramp_;
+  double period_us_;
+  int nw_;
+  std::vector<Point> from_, to_;
+};
+
+// The setpoints over the wheel samples (each its mean over [t_i, t_i+1]), and the fit /
+// held-out blocks.
 Series CommandSeries(const RobotDescription& robot, const Track& tr, const std::vector<DriveCommand>& commands,
-                     double block_s) {
+                     double block_s, bool ramp) {
   const std::size_t n = tr.utime.size();
-  const auto model = MakeDriveModel(robot);
-  const int nw = tr.wheels;
+  const Setpoints setpoints(robot, tr, commands, ramp);
   Series s;
+  s.ramp = ramp;
   s.t.resize(n);
   s.utime = tr.utime;
   s.speed_cmd.assign(n, {0, 0});
   s.steer_cmd.assign(n, {0, 0});
   s.heldout.resize(n);
   s.chunk.resize(n);
-  std::size_t c = 0;
-  std::array<double, 2> hold_steer{tr.steer[0][0], tr.steer[0][1]};
   for (std::size_t i = 0; i < n; ++i) {
     s.t[i] = (tr.utime[i] - tr.utime[0]) * 1e-6;
     s.heldout[i] = int64_t(s.t[i] / block_s) % 2 == 1;
     s.chunk[i] = int(s.t[i]);
-    while (c < commands.size() && commands[c].utime <= tr.utime[i]) ++c;
-    if (c > 0) {
-      const DriveCommand& cmd = commands[c - 1];
-      const bool live = cmd.mode != DriveMode::kStop && tr.utime[i] - cmd.utime <= int64_t(cmd.timeout_s * 1e6);
-      if (live) {
-        const WheelSetpoint sp = cmd.mode == DriveMode::kTwist ? model->Inverse(cmd.twist) : cmd.wheels;
-        for (int w = 0; w < nw; ++w) {
-          s.speed_cmd[i][w] = sp.speed.at(w);
-          if (tr.steered[w] && w < int(sp.steer.size())) hold_steer[w] = sp.steer[w];
-        }
-      }
+    // The setpoint's mean over [t_i, t_i+1] (a command rarely arrives on an encoder sample: taking
+    // the value at t_i moves every step to the next sample, half an encoder period late on average).
+    // The steering angle is read, not integrated: its target over the interval is the setpoint
+    // just before the interval's end (where the prediction is compared with the next reading; a
+    // command stamped at that reading's time acts after it).
+    const double t0 = double(tr.utime[i]), t1 = i + 1 < n ? double(tr.utime[i + 1]) : t0;
+    s.speed_cmd[i] = {0, 0};
+    for (int k = 0; k < kSubsamples; ++k) {
+      const Setpoints::Point p = setpoints.At(t0 + (k + 0.5) / kSubsamples * (t1 - t0), setpoints.size());
+      for (int w = 0; w < 2; ++w) s.speed_cmd[i][w] += p.speed[w] / kSubsamples;
     }
-    s.steer_cmd[i] = hold_steer;
+    s.steer_cmd[i] = setpoints.At(std::max(t0, t1 - 1.0), setpoints.size()).steer;
   }
   return s;
 }
@@ -116,7 +202,7 @@ std::vector<double> CommandRate(const Series& s, const std::vector<std::array<do
 }
 
 // drive_lag. `s` and `tr` must outlive the layer.
-Layer DriveLagLayer(const Series& s, const Track& tr) {
+Layer DriveLagLayer(const Series& s, const Track& tr, const std::vector<DriveCommand>& commands) {
   const std::size_t n = tr.utime.size();
   const int nw = tr.wheels;
   const int k = tr.smooth_k;
@@ -147,6 +233,9 @@ Layer DriveLagLayer(const Series& s, const Track& tr) {
     return out;
   };
   L.regressor = CommandRate(s, s.speed_cmd);
+  // A lag shorter than the jitter of the command stamps (a controller's tick: when within it
+  // the robot took the command) cannot be told from that timing.
+  CommandPeriod(commands, &L.min_value);
   return L;
 }
 
@@ -176,6 +265,16 @@ Layer SteeringRateLimitLayer(const Series& s, const Track& tr) {
   };
   L.regressor = CommandRate(s, s.steer_cmd);
   return L;
+}
+
+// n log(SSE / n) on the fit blocks at the layer's best parameter there (a Gaussian
+// log-likelihood up to constants, comparable between setpoint profiles).
+double FitLogSse(const Layer& L, const Series& s) {
+  auto keep = [&](std::size_t i) { return !s.heldout[i]; };
+  const double best = GoldenMin([&](double x) { return Sse(L, L.predict(x), s, keep); }, L.lo, L.hi);
+  std::size_t n = 0;
+  for (std::size_t i = 0; i < s.t.size(); ++i) n += keep(i) * (int(L.use[0]) + int(L.use[1]));
+  return n * std::log(std::max(Sse(L, L.predict(best), s, keep), 1e-300) / std::max<std::size_t>(n, 1));
 }
 
 // A layer fitted on the fit blocks and tested on the held-out blocks.
@@ -247,9 +346,11 @@ bool JudgeLayer(const Layer& L, const LayerTest& test, int m, double alpha, doub
   o->estimate = {value, value_std};
   o->p_value = test.p;
   o->p_adjusted = std::min(1.0, test.p * m * alpha / std::max(alpha_share, 1e-300));
-  o->detectable = (NormalUpper(alpha_share / m) + NormalUpper(0.2)) * value_std;
+  // Never below the timing resolution (a drive lag within the command stamps' jitter is not told).
+  o->detectable = std::max((NormalUpper(alpha_share / m) + NormalUpper(0.2)) * value_std, L.min_value);
   const bool at_null_edge = L.log_search && test.est > L.hi - 0.5;  // no limit inside the searched range
-  const bool significant = test.p * m < alpha_share && test.gain > kMinGain && !at_null_edge;
+  const bool below_resolution = !L.log_search && value < L.min_value;
+  const bool significant = test.p * m < alpha_share && test.gain > kMinGain && !at_null_edge && !below_resolution;
   if (significant) {
     o->status = CandidateStatus::kFound;
   } else if (!(test.sigma < L.plausible_sigma) || at_null_edge) {
@@ -267,6 +368,13 @@ bool JudgeLayer(const Layer& L, const LayerTest& test, int m, double alpha, doub
     }
   } else {
     o->status = CandidateStatus::kNotSignificant;
+    if (below_resolution) {
+      std::ostringstream note;
+      note.precision(3);
+      note << "shorter than the jitter of the command stamps (" << L.min_value << " s): not told from when the "
+           << "controller takes each command";
+      o->note = note.str();
+    }
   }
   return significant;
 }
@@ -362,10 +470,35 @@ void DiagnoseActuation(const RobotDescription& robot, const DiagnoseData& data,
     return;
   }
   const Track tr = MakeTrack(robot, data.wheels);
-  const Series s = CommandSeries(robot, tr, data.commands, options.block_s);
-  std::vector<Layer> layers;
-  layers.push_back(DriveLagLayer(s, tr));
-  if (m > 1) layers.push_back(SteeringRateLimitLayer(s, tr));
+  // Whether the controller holds each setpoint until the next command or ramps between
+  // commands, from the data: the profile under which the drive layer, at its best lag, fits the
+  // fit blocks better (Gaussian log-likelihood; both profiles have the same parameter). Held-setpoint models fitted to ramped setpoints bias the lag low by about
+  // half a command period, and the other way round high.
+  const std::array<Series, 2> profiles{CommandSeries(robot, tr, data.commands, options.block_s, false),
+                                       CommandSeries(robot, tr, data.commands, options.block_s, true)};
+  std::array<std::vector<Layer>, 2> layer_sets;
+  std::array<double, 2> score{0, 0};
+  std::ostringstream per_layer;
+  per_layer.precision(8);
+  for (int k = 0; k < 2; ++k) {
+    layer_sets[k].push_back(DriveLagLayer(profiles[k], tr, data.commands));
+    if (m > 1) layer_sets[k].push_back(SteeringRateLimitLayer(profiles[k], tr));
+    for (const Layer& L : layer_sets[k]) {
+      const double layer_score = FitLogSse(L, profiles[k]);
+      // The speeds decide: they are compared integrated over each sample, so a sub-sample shift
+      // of when the controller applies a setpoint (a simulator's or controller's tick) hardly
+      // matters; the steering angle is read at instants and such a shift can outweigh the profile.
+      if (L.name == "drive_lag") score[k] += layer_score;
+      per_layer << (k ? " ramped " : " held ") << L.name << " " << layer_score << ";";
+    }
+  }
+  const int chosen = score[1] < score[0] ? 1 : 0;
+  const Series& s = profiles[chosen];
+  const std::vector<Layer>& layers = layer_sets[chosen];
+  report->notes.push_back(std::string("actuation: the setpoint ") +
+                          (chosen ? "ramps between DRIVE_CMD messages" : "is held from one DRIVE_CMD to the next") +
+                          " (chosen by the fit: log SSE " + std::to_string(score[0]) + " held, " +
+                          std::to_string(score[1]) + " ramped;" + per_layer.str() + ")");
   for (const Layer& L : layers) {
     const LayerTest test = TestLayer(L, s);
     CandidateOutcome o;

@@ -126,6 +126,7 @@ std::string DiagnoseReportJson(const DiagnoseReport& r) {
     }
     je["heldout_measure"] = e.heldout_measure;
     je["where"] = Spans(e.where, origin);
+    if (e.region) je["region"] = {(*e.region)[0], (*e.region)[1], (*e.region)[2], (*e.region)[3]};
     je["regime"] = e.regime;
     je["signature"] = {{"regressor", e.regressor}, {"component", e.signature_component}, {"bins", nlohmann::json::array()}};
     for (const SignatureBin& b : e.signature)
@@ -216,6 +217,9 @@ std::string DiagnoseSummaryText(const DiagnoseReport& r) {
     s << "\n  where: " << e.where.size() << " time spans, " << e.regime << "\n";
     if (!e.where.empty())
       s << "  at " << SpanTimes(e.where, ReportTimeOrigin(r)) << " (s since the recording's first message)\n";
+    if (e.region)
+      s << "  on the floor: x " << (*e.region)[0] << " to " << (*e.region)[2] << " m, y " << (*e.region)[1] << " to "
+        << (*e.region)[3] << " m (odometry frame)\n";
     s << "  held-out " << e.component << " residual where it acts: "
       << BeforeAfter(e.heldout_rms_before, e.heldout_rms_after, Unit(e.component)) << " ("
       << Percent(e.heldout_rms_before, e.heldout_rms_after) << " lower); over all held-out data "

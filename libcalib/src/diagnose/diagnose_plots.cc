@@ -229,6 +229,9 @@ std::vector<std::vector<std::string>> EffectRows(const DiagnoseReport& r, const 
     for (std::size_t i = 0; i < e.where.size() && i < 6; ++i)
       where += (i ? ", " : "") + FixedDecimals(sec(e.where[i].utime_start), 1) + "–" + FixedDecimals(sec(e.where[i].utime_end), 1) + " s";
     if (e.where.size() > 6) where += ", … (" + std::to_string(e.where.size()) + " spans)";
+    if (e.region)
+      where += "; on the floor x " + FixedDecimals((*e.region)[0], 2) + "–" + FixedDecimals((*e.region)[2], 2) + " m, y " +
+               FixedDecimals((*e.region)[1], 2) + "–" + FixedDecimals((*e.region)[3], 2) + " m";
     rows.push_back({e.name + (e.wheel.empty() ? "" : " (" + e.wheel + ")"), size, PValueNumber(e.p_adjusted),
                     where.empty() ? "-" : where, e.regime});
   }

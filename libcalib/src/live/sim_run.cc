@@ -12,7 +12,8 @@ OfflineRunSummary RunOffline(const SimConfig& config, const OfflineRunOptions& o
   Commander commander(config.robot, options.custom_trajectory
                                         ? *options.custom_trajectory
                                         : MakeTrajectory(config.robot, options.trajectory));
-  const int64_t period = std::llround(1e6 / options.command_rate_hz);
+  const double rate = options.command_rate_hz > 0 ? options.command_rate_hz : config.command_rate_hz;
+  const int64_t period = std::llround(1e6 / rate);
   const int64_t start = sim.utime();
   const int64_t cap = start + std::llround(options.max_duration_s * 1e6);
   OfflineRunSummary summary;
@@ -23,8 +24,11 @@ OfflineRunSummary RunOffline(const SimConfig& config, const OfflineRunOptions& o
     if (finished_at >= 0 && t - finished_at >= std::llround(options.tail_s * 1e6)) break;
     // The commander's clock is the newest wheel state, as in the live process.
     DriveCommand command = commander.Step(sim.last_wheels_utime());
-    command.utime = sim.last_wheels_utime();
-    sink->Publish(kDriveCmdChannel, t, Encode(ToMessage(command, config.robot, summary.commands)));
+    // Stamped when the robot takes it: the simulator's time after the physics step that
+    // reached t (later than the newest wheel state when the command and encoder rates or
+    // the physics step do not line up; a stamp before that would read as a drive lag).
+    command.utime = sim.utime();
+    sink->Publish(kDriveCmdChannel, sim.utime(), Encode(ToMessage(command, config.robot, summary.commands)));
     ++summary.commands;
     sim.ApplyCommand(command);
     if (finished_at < 0 && commander.status().state == CommanderState::kFinished) finished_at = t;

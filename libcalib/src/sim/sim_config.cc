@@ -30,13 +30,13 @@ std::string Format(double v) {
   return out.str();
 }
 
-double RateOr(const Reporter& r, const CheckedMap& map, double fallback) {
+// `physics_rate`: the config's (physics_step is read before the sensors).
+double RateOr(const Reporter& r, const CheckedMap& map, double fallback, double physics_rate) {
   const double rate = NumberOr(r, map, "rate", fallback);
   if (rate < 0) r.Fail(*map.Find("rate"), "a rate must be >= 0 (0 turns the sensor off)");
   // A sensor samples at most once per physics step; a higher rate would be
   // emitted slower than configured (with noise scaled for the configured rate).
-  const double physics_rate = SimConfig().physics_rate_hz;
-  if (rate > physics_rate)
+  if (rate > physics_rate * (1 + 1e-9))
     r.Fail(*map.Find("rate"), "a rate must be at most the simulator's physics rate (" +
                                   Format(physics_rate) + " Hz)");
   return rate;
@@ -103,7 +103,7 @@ void ReadSensors(const Reporter& r, const Field& field, SimConfig* cfg) {
     const CheckedMap m(r, *f, {"rate", "ticks_per_rev", "tick_noise", "steer_resolution",
                                "steer_noise", "velocity_noise"});
     WheelSensorConfig& w = cfg->wheels;
-    w.rate_hz = RateOr(r, m, w.rate_hz);
+    w.rate_hz = RateOr(r, m, w.rate_hz, cfg->physics_rate_hz);
     if (const auto t = m.Find("ticks_per_rev")) w.ticks_per_rev = ReadCount(r, *t);
     w.tick_noise = NonNegativeOr(r, m, "tick_noise", w.tick_noise);
     w.steer_resolution_rad = NonNegativeOr(r, m, "steer_resolution", w.steer_resolution_rad);
@@ -114,7 +114,7 @@ void ReadSensors(const Reporter& r, const Field& field, SimConfig* cfg) {
     const CheckedMap m(r, *f, {"rate", "beams", "fov", "range_min", "range_max", "range_noise",
                                "dropout"});
     Lidar2dSensorConfig& l = cfg->lidar2d;
-    l.rate_hz = RateOr(r, m, l.rate_hz);
+    l.rate_hz = RateOr(r, m, l.rate_hz, cfg->physics_rate_hz);
     if (const auto b = m.Find("beams")) l.beams = ReadCount(r, *b);
     if (const auto v = m.Find("fov")) l.fov_rad = ReadPositive(r, *v);
     l.range_min = NonNegativeOr(r, m, "range_min", l.range_min);
@@ -127,7 +127,7 @@ void ReadSensors(const Reporter& r, const Field& field, SimConfig* cfg) {
     const CheckedMap m(r, *f, {"rate", "gyro_noise_density", "gyro_bias", "accel_noise_density",
                                "accel_bias", "gyro_scale", "time_offset"});
     ImuSensorConfig& i = cfg->imu;
-    i.rate_hz = RateOr(r, m, i.rate_hz);
+    i.rate_hz = RateOr(r, m, i.rate_hz, cfg->physics_rate_hz);
     i.gyro_noise_density = NonNegativeOr(r, m, "gyro_noise_density", i.gyro_noise_density);
     i.gyro_bias = NumberOr(r, m, "gyro_bias", i.gyro_bias);
     i.accel_noise_density = NonNegativeOr(r, m, "accel_noise_density", i.accel_noise_density);
@@ -141,7 +141,7 @@ void ReadSensors(const Reporter& r, const Field& field, SimConfig* cfg) {
     const CheckedMap m(r, *f, {"rate", "rings", "elevation_min", "elevation_max",
                                "points_per_ring", "range_max", "range_noise", "body", "turret"});
     Lidar3dSensorConfig& l = cfg->lidar3d;
-    l.rate_hz = RateOr(r, m, l.rate_hz);
+    l.rate_hz = RateOr(r, m, l.rate_hz, cfg->physics_rate_hz);
     if (const auto v = m.Find("rings")) l.rings = ReadCount(r, *v);
     l.elevation_min_rad = NumberOr(r, m, "elevation_min", l.elevation_min_rad);
     l.elevation_max_rad = NumberOr(r, m, "elevation_max", l.elevation_max_rad);
@@ -155,7 +155,7 @@ void ReadSensors(const Reporter& r, const Field& field, SimConfig* cfg) {
     }
     if (const auto t = m.Find("turret")) {
       const CheckedMap turret(r, *t, {"rate", "speed", "start", "axis_pitch", "axis_roll"});
-      l.turret_rate_hz = RateOr(r, turret, l.turret_rate_hz);
+      l.turret_rate_hz = RateOr(r, turret, l.turret_rate_hz, cfg->physics_rate_hz);
       l.turret_speed = NumberOr(r, turret, "speed", l.turret_speed);
       l.turret_start = NumberOr(r, turret, "start", l.turret_start);
       l.turret_axis_pitch = NumberOr(r, turret, "axis_pitch", l.turret_axis_pitch);
@@ -166,14 +166,25 @@ void ReadSensors(const Reporter& r, const Field& field, SimConfig* cfg) {
   }
   if (const auto f = top.Find("pose")) {
     const CheckedMap m(r, *f, {"rate", "noise_xy", "noise_theta"});
-    cfg->pose.rate_hz = RateOr(r, m, cfg->pose.rate_hz);
+    cfg->pose.rate_hz = RateOr(r, m, cfg->pose.rate_hz, cfg->physics_rate_hz);
     cfg->pose.noise_xy = NonNegativeOr(r, m, "noise_xy", cfg->pose.noise_xy);
     cfg->pose.noise_theta = NonNegativeOr(r, m, "noise_theta", cfg->pose.noise_theta);
   }
   if (const auto f = top.Find("ground_truth")) {
     const CheckedMap m(r, *f, {"rate"});
-    cfg->ground_truth_rate_hz = RateOr(r, m, cfg->ground_truth_rate_hz);
+    cfg->ground_truth_rate_hz = RateOr(r, m, cfg->ground_truth_rate_hz, cfg->physics_rate_hz);
   }
+}
+
+// An effect's `region: [x0, y0, x1, y1]` (world frame, m; x0 < x1, y0 < y1), if given.
+std::optional<std::array<double, 4>> ReadRegion(const Reporter& r, const CheckedMap& m) {
+  const auto f = m.Find("region");
+  if (!f) return std::nullopt;
+  if (!f->value.IsSequence() || f->value.size() != 4) r.Fail(*f, "expected [x0, y0, x1, y1] (m, world frame)");
+  std::array<double, 4> box{};
+  for (int i = 0; i < 4; ++i) box[i] = ReadNumber(r, Field{f->path, f->line, f->value[i]});
+  if (!(box[0] < box[2] && box[1] < box[3])) r.Fail(*f, "a region needs x0 < x1 and y0 < y1");
+  return box;
 }
 
 // Effects of spec/effects.md with their parameter keys; `wheel` picks one wheel.
@@ -229,13 +240,15 @@ void ReadEffects(const Reporter& r, const Field& field, SimConfig* cfg) {
                          Format(1.0 / cfg->lidar2d.rate_hz) + " s)");
   }
   if (const auto f = top.Find("longitudinal_slip")) {
-    const CheckedMap m(r, *f, {"slip_per_accel", "wheel"});
+    const CheckedMap m(r, *f, {"slip_per_accel", "wheel", "region"});
     fx.longitudinal_slip_per_accel = ReadNumber(r, m.Get("slip_per_accel"));
     fx.longitudinal_slip_wheel = wheel(m);
+    fx.longitudinal_slip_region = ReadRegion(r, m);
   }
   if (const auto f = top.Find("lateral_slip")) {
-    const CheckedMap m(r, *f, {"gain"});
+    const CheckedMap m(r, *f, {"gain", "region"});
     fx.lateral_slip_gain = ReadNumber(r, m.Get("gain"));
+    fx.lateral_slip_region = ReadRegion(r, m);
   }
   if (const auto f = top.Find("steering_lag")) {
     require_steering(*f);
@@ -273,8 +286,8 @@ SimConfig ParseSimConfig(const std::string& yaml_text, const std::string& origin
                          const std::string& base_dir) {
   const Reporter r(origin);
   const Field root = yaml::ParseSingleDocument(r, yaml_text, "simulation config");
-  const CheckedMap top(r, root, {"robot", "seed", "world", "start", "start_utime", "truth",
-                                 "sensors", "effects"});
+  const CheckedMap top(r, root, {"robot", "seed", "world", "start", "start_utime", "physics_step",
+                                 "commands", "truth", "sensors", "effects"});
   SimConfig cfg;
   cfg.source_file = origin;
   const Field robot_field = top.Get("robot", "path of the robot file");
@@ -315,6 +328,24 @@ SimConfig ParseSimConfig(const std::string& yaml_text, const std::string& origin
   }
   if (const auto f = top.Find("start_utime"))
     cfg.start_utime = static_cast<int64_t>(ReadPositive(r, *f));
+  if (const auto f = top.Find("physics_step")) {
+    const double step = ReadPositive(r, *f);
+    if (step < 1e-4 || step > 0.05) r.Fail(*f, "the physics step must be within 0.0001 .. 0.05 s");
+    cfg.physics_rate_hz = 1.0 / step;
+  }
+  if (const auto f = top.Find("commands")) {
+    const CheckedMap m(r, *f, {"rate", "between"});
+    if (const auto v = m.Find("rate")) {
+      cfg.command_rate_hz = ReadPositive(r, *v);
+      if (cfg.command_rate_hz > cfg.physics_rate_hz * (1 + 1e-9))
+        r.Fail(*v, "the command rate must be at most the physics rate (" + Format(cfg.physics_rate_hz) + " Hz)");
+    }
+    if (const auto v = m.Find("between")) {
+      const std::string between = ReadString(r, *v);
+      if (between != "hold" && between != "ramp") r.Fail(*v, "expected hold or ramp, got '" + between + "'");
+      cfg.command_ramp = between == "ramp";
+    }
+  }
   if (const auto f = top.Find("truth")) ReadTruth(r, *f, &cfg);
   if (const auto f = top.Find("sensors")) ReadSensors(r, *f, &cfg);
   if (const auto f = top.Find("effects")) ReadEffects(r, *f, &cfg);

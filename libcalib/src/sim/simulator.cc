@@ -33,8 +33,13 @@ struct WheelState {
   // steering_backlash: sign(last steering motion); none yet, so the wheel sits at the
   // reading until the steering first moves (the side of the play is unknown before).
   double last_motion_sign = 0.0;
-  double omega_target = 0.0, steer_target = 0.0;
+  double omega_target = 0.0, steer_target = 0.0;  // setpoints in force (after any ramp)
+  double omega_from = 0.0, steer_from = 0.0;      // commands.between ramp: setpoints when the command came
 };
+
+bool Inside(const std::optional<std::array<double, 4>>& region, const Pose2& p) {
+  return !region || (p.x >= (*region)[0] && p.x <= (*region)[2] && p.y >= (*region)[1] && p.y <= (*region)[3]);
+}
 
 }  // namespace
 
@@ -136,6 +141,7 @@ void Simulator::ApplyCommand(const DriveCommand& command) {
   state_->command = command;
   state_->command_received = utime_;
   state_->have_command = true;
+  for (WheelState& w : state_->wheels) w.omega_from = w.omega_target, w.steer_from = w.steer_target;
 }
 
 void Simulator::StepPhysics(double dt) {
@@ -153,10 +159,18 @@ void Simulator::StepPhysics(double dt) {
   } else if (live) {
     target = s.command.wheels;
   }
+  // commands.between ramp: from the setpoints in force when the command came to the new ones
+  // over one command period, at the step's middle (the mean of the linear ramp over the step: at
+  // its end the setpoint would lead the ramp by half a step, which reads as a timing error).
+  const double ramp = !config_.command_ramp || !s.have_command
+                          ? 1.0
+                          : std::min(1.0, (utime_ + dt * 0.5e6 - s.command_received) * 1e-6 * config_.command_rate_hz);
   for (size_t i = 0; i < n; ++i) {
     WheelState& w = s.wheels[i];
-    w.omega_target = live ? target.speed.at(i) : 0.0;
-    if (live && s.steered[i]) w.steer_target = target.steer.at(i);
+    const double omega = live ? target.speed.at(i) : 0.0;
+    auto blend = [ramp](double from, double to) { return ramp >= 1.0 ? to : from + ramp * (to - from); };
+    w.omega_target = blend(w.omega_from, omega);
+    if (live && s.steered[i]) w.steer_target = blend(w.steer_from, target.steer.at(i));
   }
 
   std::vector<double> effective_omega(n), true_raw(n);
@@ -197,7 +211,7 @@ void Simulator::StepPhysics(double dt) {
         (fx.eccentricity_wheel.empty() || fx.eccentricity_wheel == roles[i]))
       eccentric += fx.eccentricity_amplitude * std::cos(w.phi - fx.eccentricity_phase);
     double slip = 0.0;  // k a v, m/s
-    if (fx.longitudinal_slip_per_accel != 0 &&
+    if (fx.longitudinal_slip_per_accel != 0 && Inside(fx.longitudinal_slip_region, pose_) &&
         (fx.longitudinal_slip_wheel.empty() || fx.longitudinal_slip_wheel == roles[i])) {
       // a = d(r w)/dt. A speed change happens at the start of a step, so the
       // distance slipped over the step, k * integral(a v dt), is k (v^2 - v_prev^2) / 2:
@@ -215,7 +229,7 @@ void Simulator::StepPhysics(double dt) {
 
   // Body motion from the wheels' true motion, with the true parameters.
   Twist2 twist = s.true_model->Forward({effective_omega, true_raw});
-  if (fx.lateral_slip_gain != 0) twist.vy += -fx.lateral_slip_gain * twist.vx * twist.omega;
+  if (fx.lateral_slip_gain != 0 && Inside(fx.lateral_slip_region, pose_)) twist.vy += -fx.lateral_slip_gain * twist.vx * twist.omega;
   pose_ = Compose(pose_, ExpTwist(twist, dt));
   s.omega_body = twist.omega;
   const double c = std::cos(pose_.theta), sn = std::sin(pose_.theta);

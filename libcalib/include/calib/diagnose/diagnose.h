@@ -22,6 +22,7 @@
 // An effect must also lower BIC on the fit blocks: a Wald statistic can overstate
 // the evidence where the model is far from linear or the regressor sparse.
 
+#include <array>
 #include <cstdint>
 #include <functional>
 #include <map>
@@ -146,6 +147,9 @@ struct FoundEffect {
   // too few held-out stretches.
   std::string heldout_measure = "per_interval";
   std::vector<TimeSpan> where;
+  // An effect confined to a region of the floor: its bounding box in the odometry frame
+  // (x0, y0, x1, y1, m; REPORT.json `region` beside `where`). Absent: it acts everywhere.
+  std::optional<std::array<double, 4>> region;
   std::string regime;     // the motion under which it shows, in words
   std::string regressor;  // what the signature is binned by
   std::string signature_component;  // the residual component binned

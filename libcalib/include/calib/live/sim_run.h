@@ -18,7 +18,7 @@ namespace calib {
 struct OfflineRunOptions {
   std::string trajectory = "default";
   std::optional<Trajectory> custom_trajectory;  // used instead of the named one when set
-  double command_rate_hz = 20.0;
+  double command_rate_hz = 0.0;  // 0: the config's commands.rate
   double tail_s = 1.0;           // standstill recorded after the final stop
   double max_duration_s = 3600;  // safety cap on simulated time
   // Called about once per simulated second with (simulated s, total estimate s).

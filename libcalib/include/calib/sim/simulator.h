@@ -18,6 +18,13 @@
 //   world: warehouse                  # bundled name or path to a .world file
 //   start: {x: 0, y: 0, theta: 0}
 //   start_utime: 1700000000000000     # robot clock at the start, us
+//   physics_step: 0.001               # integration step of the physics, s (1e-4 .. 0.05); a
+//                                     # sensor samples at most once per step, at the step's end
+//   commands: {rate: 20, between: hold}
+//       # DRIVE_CMD rate of the offline run (agvcal simulate), Hz; what the robot's controller
+//       # does between commands: `hold` each setpoint until the next, or `ramp` from the
+//       # setpoint in force to the new one over one command period (1 / rate), then hold
+//       # (each physics step holds the ramp's value at the step's middle)
 //   truth:                            # true values; anything omitted = nominal
 //     params: {drive_radius: 0.1153, ...}
 //     lidar2d: {x:, y:, yaw:}   lidar3d: {x:, y:, z:, roll:, pitch:, yaw:}
@@ -43,12 +50,16 @@
 //     ground_truth: {rate: 100}
 //   effects:                          # spec/effects.md names and parameter keys
 //     time_offset: {offset_s: 0.02}
+//     longitudinal_slip: {slip_per_accel: 0.08, region: [x0, y0, x1, y1]}
+//       # region (longitudinal_slip, lateral_slip): the effect acts only while the reference
+//       # point is inside this box of the world frame, m (a wet patch); absent: everywhere
 //     wheel_eccentricity: {amplitude: 0.003, phase: 0.4, wheel: left}
 //     ...
 // A sensor with rate 0 is off. lidar2d is on when the robot file has a
 // lidar2d, imu when it has an imu, pose when it has a pose source; lidar3d is
 // off unless given a rate.
 
+#include <array>
 #include <cstdint>
 #include <map>
 #include <memory>
@@ -72,7 +83,9 @@ struct SimEffects {
   std::optional<double> scan_distortion_period_s;  // scan_distortion.scan_period_s
   double longitudinal_slip_per_accel = 0.0;      // longitudinal_slip.slip_per_accel, s^2/m
   std::string longitudinal_slip_wheel;           // empty = every driven wheel
+  std::optional<std::array<double, 4>> longitudinal_slip_region;  // [x0, y0, x1, y1], world
   double lateral_slip_gain = 0.0;                // lateral_slip.gain, s
+  std::optional<std::array<double, 4>> lateral_slip_region;       // [x0, y0, x1, y1], world
   double steering_lag_tau_s = 0.0;               // steering_lag.tau_s
   double steering_backlash_width_rad = 0.0;      // steering_backlash.width_rad
   double eccentricity_amplitude = 0.0;           // wheel_eccentricity.amplitude
@@ -145,7 +158,9 @@ struct SimConfig {
   Pose2 start;
   int64_t start_utime = 1700000000000000;
   uint64_t seed = 1;
-  double physics_rate_hz = 1000.0;
+  double physics_rate_hz = 1000.0;             // 1 / physics_step
+  double command_rate_hz = 20.0;               // commands.rate (offline runs)
+  bool command_ramp = false;                   // commands.between: ramp (true) or hold
   WheelSensorConfig wheels;
   Lidar2dSensorConfig lidar2d;
   ImuSensorConfig imu;
