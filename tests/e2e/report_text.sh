@@ -29,7 +29,7 @@ text = open(sys.argv[1]).read()
 assert re.search(r"Overall held-out residual RMS: x [0-9.]+ mm -> [0-9.]+ mm, y [0-9.]+ mm -> [0-9.]+ mm, "
                  r"yaw [0-9.e-]+ rad \([0-9.e-]+ deg\) -> [0-9.e-]+ rad", text), text
 assert re.search(r"translation [0-9.]+ mm -> [0-9.]+ mm, heading [0-9.e-]+ rad \(", text), text
-assert not re.search(r"p = 0\b|p = 0\.0+\b", text), text
+assert not re.search(r"p = 0(?![.0-9])|p = 0\.0+(?![0-9])", text), text  # "p = 0", "p = 0.000"
 assert "+-" not in text, text
 PY
 

@@ -19,6 +19,7 @@
 #include "calib/core/laser_scan.h"
 #include "calib/io/log_summary.h"
 #include "calib/core/statistics.h"
+#include "calib/core/units.h"
 #include "calib/diagnose/selection.h"
 #include "calib/io/message_source.h"
 #include "diagnose/diagnose_internal.h"
@@ -969,8 +970,9 @@ void Diagnoser::TestRegions(const std::vector<Candidate>& cands, const Fit& curr
       std::ostringstream note;
       note.precision(3);
       note << "not confined to a region either: the best of " << t.boxes << " boxes of the route (x " << t.box[0]
-           << " .. " << t.box[2] << ", y " << t.box[1] << " .. " << t.box[3] << " m) gives " << t.beta << " +- "
-           << t.std << ", p = " << t.p_adjusted << " over the boxes, held-out z = " << t.heldout_z;
+           << " .. " << t.box[2] << ", y " << t.box[1] << " .. " << t.box[3] << " m) gives "
+           << EstimateText(t.beta, t.std, ParamUnit(c->keys[0])) << ", " << PValueText(t.p_adjusted)
+           << " over the boxes, held-out z = " << t.heldout_z;
       o.note += (o.note.empty() ? "" : "; ") + note.str();
       continue;
     }

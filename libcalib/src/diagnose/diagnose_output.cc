@@ -249,10 +249,11 @@ std::string DiagnoseSummaryText(const DiagnoseReport& r) {
         c.status == CandidateStatus::kNotIdentifiable)
       continue;
     if (!header) s << "\nRejected look-alikes and disagreeing tests:\n";
+    const std::string unit = ParamUnit(EffectSizeKey(c.name));
     header = true;
     s << "  " << c.name << (c.wheel.empty() ? "" : " (" + c.wheel + ")") << " " << CandidateStatusName(c.status)
-      << ": estimate " << c.estimate.value << " +- " << c.estimate.std << ", p = " << c.p_adjusted << ", delta BIC "
-      << c.delta_bic << ", detectable " << c.detectable << "; " << c.note << "\n";
+      << ": estimate " << EstimateText(c.estimate.value, c.estimate.std, unit) << ", " << PValueText(c.p_adjusted)
+      << ", delta BIC " << c.delta_bic << ", detectable " << QuantityText(c.detectable, unit, 3) << "; " << c.note << "\n";
   }
   header = false;
   for (const CandidateOutcome& c : r.candidates) {
