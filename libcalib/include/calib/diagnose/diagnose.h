@@ -170,6 +170,10 @@ const char* CandidateStatusName(CandidateStatus status);
 // time_offset, "slip_per_accel" for longitudinal_slip, ...; its unit: core/units.h ParamUnit.
 std::string EffectSizeKey(const std::string& effect_name);
 
+// The SI unit of a residual component or actuation trace by its first word: "m" (x, y,
+// translation), "rad" (yaw, heading, steer ...), "rad/s" (speed ...).
+std::string ComponentUnit(const std::string& component);
+
 // Every candidate tested, with its outcome.
 struct CandidateOutcome {
   std::string name, layer, wheel;
