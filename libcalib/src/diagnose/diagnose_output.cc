@@ -28,16 +28,6 @@ nlohmann::json Spans(const std::vector<TimeSpan>& spans, int64_t origin) {
   return j;
 }
 
-// "12.3-15.0 s, 40.1-44.0 s, ... (N spans)": the first spans, seconds since the origin.
-std::string SpanTimes(const std::vector<TimeSpan>& spans, int64_t origin) {
-  std::ostringstream s;
-  s.setf(std::ios::fixed);
-  s.precision(1);
-  for (std::size_t i = 0; i < spans.size() && i < 5; ++i)
-    s << (i ? ", " : "") << Since(spans[i].utime_start, origin) << "-" << Since(spans[i].utime_end, origin) << " s";
-  if (spans.size() > 5) s << ", ...";
-  return s.str();
-}
 
 nlohmann::json Params(const std::map<std::string, ParamEstimate>& params) {
   nlohmann::json j = nlohmann::json::object();
@@ -59,6 +49,15 @@ std::string BeforeAfter(double before, double after, const std::string& unit) {
 }
 
 }  // namespace
+
+std::string SpanTimes(const std::vector<TimeSpan>& spans, int64_t origin, std::size_t shown) {
+  std::string text;
+  for (std::size_t i = 0; i < spans.size() && i < shown; ++i)
+    text += (i ? ", " : "") + FixedDecimals(Since(spans[i].utime_start, origin), 1) + "–" +
+            FixedDecimals(Since(spans[i].utime_end, origin), 1) + " s";
+  if (spans.size() > shown) text += ", … (" + std::to_string(spans.size()) + " spans)";
+  return text;
+}
 
 int64_t ReportTimeOrigin(const DiagnoseReport& r) {
   return r.recording_start_utime ? r.recording_start_utime : r.intervals.empty() ? 0 : r.intervals.front().utime_start;

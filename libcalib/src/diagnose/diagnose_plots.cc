@@ -206,9 +206,7 @@ std::vector<std::vector<std::string>> EffectRows(const DiagnoseReport& r, const 
   for (const FoundEffect& e : r.effects) {
     std::string size, where;
     for (const auto& [k, v] : e.params) size += (size.empty() ? "" : ", ") + k + " = " + EstimateText(v.value, v.std, ParamUnit(k));
-    for (std::size_t i = 0; i < e.where.size() && i < 6; ++i)
-      where += (i ? ", " : "") + FixedDecimals(sec(e.where[i].utime_start), 1) + "–" + FixedDecimals(sec(e.where[i].utime_end), 1) + " s";
-    if (e.where.size() > 6) where += ", … (" + std::to_string(e.where.size()) + " spans)";
+    where = SpanTimes(e.where, sec.t0);
     if (e.region)
       where += "; on the floor x " + FixedDecimals((*e.region)[0], 2) + "–" + FixedDecimals((*e.region)[2], 2) + " m, y " +
                FixedDecimals((*e.region)[1], 2) + "–" + FixedDecimals((*e.region)[3], 2) + " m";

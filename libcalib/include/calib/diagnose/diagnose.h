@@ -250,6 +250,9 @@ DiagnoseReport DiagnoseLog(const RobotDescription& robot, const std::string& log
 // REPORT.json (spec/cli.md) with the extra keys of DiagnoseReport.
 // t = 0 of the report's times: recording_start_utime, or the first interval's start.
 int64_t ReportTimeOrigin(const DiagnoseReport& report);
+// "12.3–15.0 s, 40.1–44.0 s, … (9 spans)": the first `shown` spans in seconds since `origin`
+// (summary.txt and the report page alike).
+std::string SpanTimes(const std::vector<TimeSpan>& spans, int64_t origin, std::size_t shown = 6);
 
 std::string DiagnoseReportJson(const DiagnoseReport& report);
 
