@@ -194,6 +194,7 @@ TEST(DashboardModel, ParameterHistoryAndConvergence) {
   const std::vector<ParameterView> params = model.Parameters();
   ASSERT_EQ(params.size(), 2u);
   EXPECT_EQ(params[0].name, "drive_radius");
+  EXPECT_EQ(params[0].unit, "m");
   EXPECT_EQ(params[0].values, radius);
   EXPECT_DOUBLE_EQ(params[0].value, 0.11631);
   EXPECT_DOUBLE_EQ(params[0].std, 0.00004);
@@ -201,6 +202,7 @@ TEST(DashboardModel, ParameterHistoryAndConvergence) {
   EXPECT_NEAR(params[0].last_change_sigmas, 0.00001 / 0.00004, 1e-6);
   EXPECT_TRUE(params[0].converged);
   EXPECT_EQ(params[1].name, "lidar2d.yaw");
+  EXPECT_EQ(params[1].unit, "rad");
   EXPECT_NEAR(params[1].last_change_sigmas, 1.0, 1e-9);
   EXPECT_FALSE(params[1].converged);
   // One more large step of the radius: no longer converged.

@@ -8,6 +8,7 @@
 #include <cstdlib>
 #include <filesystem>
 #include <fstream>
+#include <limits>
 #include <sstream>
 #include <string>
 #include <vector>
@@ -175,7 +176,22 @@ TEST(UnitsTest, RoundsToTwoDigitsOfTheSigma) {
   EXPECT_EQ(ParamUnit("lidar2d.yaw"), "rad");
   EXPECT_EQ(ParamUnit("a1_steer_offset"), "rad");
   EXPECT_EQ(ParamUnit("slip_per_accel"), "s²/m");
+  EXPECT_EQ(ParamUnit("amplitude"), "(relative)");
   EXPECT_EQ(MillimetresText(0.001056), "1.06 mm");
+}
+
+// The one value-and-sigma rendering of the reports, the terminal and the pages.
+TEST(UnitsTest, ValueWithSigma) {
+  EXPECT_EQ(ValueWithSigma(1.234567, 0.0012), "1.2346 ± 0.0012");
+  EXPECT_EQ(ValueWithSigma(1.234567, 0.0996), "1.23 ± 0.10") << "two digits of the sigma after rounding";
+  EXPECT_EQ(ValueWithSigma(0.5, 0.0), "0.5") << "held: the value alone";
+  EXPECT_EQ(ValueWithSigma(0.5, std::numeric_limits<double>::infinity()), "0.5 ± undetermined");
+  EXPECT_EQ(ValueWithSigma(-0.0004, -0.01), "0.000") << "a change rounded to its sigma, no \"-0\"";
+  EXPECT_EQ(ValueWithSigma(std::nan(""), 0.1), "n/a");
+  EXPECT_EQ(EstimateText(0.5, 0.0, "m"), "0.5 m");
+  EXPECT_EQ(EstimateText(0.01, 0.001, "(relative)"), "0.0100 ± 0.0010 (relative)");
+  EXPECT_EQ(FixedDecimals(12.345, 1), "12.3");
+  EXPECT_EQ(Formatted("%5.1f|%s", 2.5, "x"), "  2.5|x");
 }
 
 }  // namespace

@@ -9,6 +9,8 @@
 #include <string>
 #include <vector>
 
+#include "calib/core/units.h"
+
 namespace agvcal_dashboard {
 
 namespace {
@@ -52,15 +54,6 @@ std::string ClipWords(const std::string& s, int cells) {
   return head + "...";
 }
 
-std::string Format(const char* format, ...) {
-  char buffer[512];
-  va_list args;
-  va_start(args, format);
-  std::vsnprintf(buffer, sizeof buffer, format, args);
-  va_end(args);
-  return buffer;
-}
-
 // Writes `text` at (y, x), clipped to the screen; the last line stays for the footer.
 void Put(int y, int x, const std::string& text, Color color = kPlain, bool bold = false) {
   if (y < 0 || y >= LINES || x >= COLS) return;
@@ -77,7 +70,7 @@ Color StatusColor(const std::string& status) {
 }
 
 std::string Age(double seconds) {
-  return seconds < 100 ? Format("%.1f s", seconds) : Format("%.0f s", seconds);
+  return seconds < 100 ? calib::Formatted("%.1f s", seconds) : calib::Formatted("%.0f s", seconds);
 }
 
 // Rows a section may use from `y` on, keeping the footer line free.
@@ -90,7 +83,7 @@ void DrawHeader(const ViewState& state) {
   int x = 18;
   for (int v = 1; v <= 4; ++v) {
     const bool current = static_cast<int>(state.view) == v;
-    const std::string label = current ? Format("[%s]", kNames[v]) : Format(" %s ", kNames[v]);
+    const std::string label = current ? calib::Formatted("[%s]", kNames[v]) : calib::Formatted(" %s ", kNames[v]);
     Put(0, x, label, kTitle, current);
     x += Cells(label) + 1;
   }
@@ -100,7 +93,7 @@ void DrawHeader(const ViewState& state) {
 
 void DrawFooter(const calib::DashboardModel& model, int64_t now_us) {
   const calib::EstimateView e = model.Estimate(now_us);
-  std::string left = e.any ? Format("solver: %s, estimate %d, %s ago", e.status.c_str(), e.estimates,
+  std::string left = e.any ? calib::Formatted("solver: %s, estimate %d, %s ago", e.status.c_str(), e.estimates,
                                     Age(e.age_s).c_str())
                            : std::string("solver: no CALIB_ESTIMATE yet");
   const std::string keys = "1-4 view  p pause  ? help  q quit";
@@ -134,7 +127,7 @@ int DrawEstimateStatus(const calib::EstimateView& e, int y, int message_lines) {
   Put(y, 0, "Calibration:");
   Put(y, 13, e.status, StatusColor(e.status), true);
   Put(y, 14 + Cells(e.status),
-      Format("%s  intervals %d  outliers %d  condition %.1f", e.drive.c_str(), e.intervals, e.outliers,
+      calib::Formatted("%s  intervals %d  outliers %d  condition %.1f", e.drive.c_str(), e.intervals, e.outliers,
              e.condition));
   ++y;
   if (!e.message.empty()) {  // the reason (e.g. the unobservable parameter and the motion to add)
@@ -152,24 +145,33 @@ int DrawEstimateStatus(const calib::EstimateView& e, int y, int message_lines) {
   return y;
 }
 
-std::string Value(double v) { return Format("%.6f", v); }
-std::string Sigma(double s) { return s < 0 ? std::string("-") : Format("%.6f", s); }
+std::string Value(double v) { return calib::Formatted("%.6f", v); }
+std::string Sigma(double s) { return s < 0 ? std::string("-") : calib::Formatted("%.6f", s); }
 
-// Parameter table, one row each with a convergence sparkline. Returns the next row.
+// A unit padded to `cells` cells ("s²/m" is 5 bytes, 4 cells).
+std::string UnitCell(const std::string& unit, int cells) {
+  return unit + std::string(static_cast<std::size_t>(std::max(0, cells - Cells(unit))), ' ');
+}
+
+// Parameter table, one row each with a convergence sparkline; the unit column (SI, the
+// robot file's) where the screen is wide enough to keep a sparkline beside it. Returns the
+// next row.
 int DrawParameterTable(const calib::DashboardModel& model, int y, Glyphs glyphs, int max_rows) {
   const std::vector<calib::ParameterView> params = model.Parameters();
   if (params.empty() || max_rows < 2) return y;
-  Put(y++, 0, "parameter           value      sigma    nominal  convergence", kPlain, true);
-  const int spark_x = 48, spark_w = std::max(0, COLS - spark_x - 11);
+  const bool units = COLS >= 72;
+  Put(y++, 0, units ? "parameter           value      sigma    nominal unit  convergence"
+                    : "parameter           value      sigma    nominal  convergence", kPlain, true);
+  const int spark_x = units ? 54 : 48, spark_w = std::max(0, COLS - spark_x - 11);
   for (std::size_t i = 0; i < params.size() && static_cast<int>(i) + 1 < max_rows; ++i, ++y) {
     const calib::ParameterView& p = params[i];
-    Put(y, 0, Format("%-14s %10s %10s %10.4f", Clip(p.name, 14).c_str(), Value(p.value).c_str(),
-                     Sigma(p.std).c_str(), p.nominal));
+    Put(y, 0, calib::Formatted("%-14s %10s %10s %10.4f", Clip(p.name, 14).c_str(), Value(p.value).c_str(),
+                     Sigma(p.std).c_str(), p.nominal) + (units ? " " + UnitCell(p.unit, 5) : ""));
     Put(y, spark_x, calib::Sparkline(p.values, spark_w, glyphs));
     if (p.converged)
       Put(y, spark_x + spark_w + 1, "converged", kGood);
     else if (p.last_change_sigmas >= 0)
-      Put(y, spark_x + spark_w + 1, Format("%.1f sig", p.last_change_sigmas), kWarn);
+      Put(y, spark_x + spark_w + 1, calib::Formatted("%.1f sig", p.last_change_sigmas), kWarn);
   }
   return y;
 }
@@ -196,15 +198,15 @@ void DrawOverview(const calib::DashboardModel& model, int64_t now_us, const View
     std::string head = "residual rms";
     for (int k = 0; k < 3; ++k) {
       const calib::ResidualStats s = model.Stats(k);
-      head += Format("  %s %.3g %s", kComponentNames[k], s.rms * kComponentScale[k], kComponentUnits[k]);
+      head += calib::Formatted("  %s %.3g %s", kComponentNames[k], s.rms * kComponentScale[k], kComponentUnits[k]);
     }
     // Not the header's counts (the last solve's intervals and outliers): each interval's residual
     // is sent once, with the outlier flag of the solve that sent it.
-    head += Format("  (%d received, %d outliers when sent)", model.Stats(0).count, model.Stats(0).outliers);
+    head += calib::Formatted("  (%d received, %d outliers when sent)", model.Stats(0).count, model.Stats(0).outliers);
     Put(y++, 0, head, kPlain, true);
     for (int k = 0; k < 3; ++k, ++y) {
       const double range = DrawResidualPlot(model, k, y, 18, COLS - 18, 1, state.glyphs);
-      Put(y, 0, Format("%-3s +-%.3g %s", kComponentNames[k], range, kComponentUnits[k]));
+      Put(y, 0, calib::Formatted("%-3s +-%.3g %s", kComponentNames[k], range, kComponentUnits[k]));
     }
   }
   // Channels, three to a row, then processes and the commander on one row each.
@@ -217,8 +219,8 @@ void DrawOverview(const calib::DashboardModel& model, int64_t now_us, const View
       const calib::ChannelView& c = channels[i];
       const int x = static_cast<int>(i % per_row) * 26;
       const double hz = c.data_rate_hz > 0 ? c.data_rate_hz : c.rate_hz;
-      Put(y, x, Format("%-16s", Clip(c.name, 16).c_str()));
-      Put(y, x + 17, c.stale ? std::string("STALE") : Format("%7.1f", hz), c.stale ? kBad : kGood);
+      Put(y, x, calib::Formatted("%-16s", Clip(c.name, 16).c_str()));
+      Put(y, x + 17, c.stale ? std::string("STALE") : calib::Formatted("%7.1f", hz), c.stale ? kBad : kGood);
       if (i % per_row == static_cast<std::size_t>(per_row - 1) || i + 1 == channels.size()) ++y;
     }
   }
@@ -227,7 +229,7 @@ void DrawOverview(const calib::DashboardModel& model, int64_t now_us, const View
     Put(y, x, "processes", kPlain, true);
     x += 10;
     for (const calib::ProcessView& p : model.Processes(now_us)) {
-      const std::string s = p.name + (p.stale ? " STALE" : " ok") + (p.restarts ? Format("(%dr)", p.restarts) : "");
+      const std::string s = p.name + (p.stale ? " STALE" : " ok") + (p.restarts ? calib::Formatted("(%dr)", p.restarts) : "");
       Put(y, x, s, p.stale ? kBad : kGood);
       x += Cells(s) + 2;
     }
@@ -241,7 +243,7 @@ void DrawOverview(const calib::DashboardModel& model, int64_t now_us, const View
       Put(y, 10, "none (no COMMANDER_STATUS)");
     else
       Put(y, 10,
-          Format("%s  %s  segment %d/%d %s%s", c.state.c_str(), c.trajectory.c_str(), c.segment + 1,
+          calib::Formatted("%s  %s  segment %d/%d %s%s", c.state.c_str(), c.trajectory.c_str(), c.segment + 1,
                  c.num_segments, c.segment_name.c_str(), c.stale ? "  STALE" : ""),
           c.stale || c.state != "running" ? kWarn : kGood);
   }
@@ -264,13 +266,13 @@ void DrawResiduals(const calib::DashboardModel& model, const ViewState& state) {
     const calib::ResidualStats s = model.Stats(k);
     const double scale = kComponentScale[k];
     Put(y, 0,
-        Format("%-3s rms %.3g %s  max %.3g %s  n %d  outliers %d", kComponentNames[k], s.rms * scale,
+        calib::Formatted("%-3s rms %.3g %s  max %.3g %s  n %d  outliers %d", kComponentNames[k], s.rms * scale,
                kComponentUnits[k], s.max_abs * scale, kComponentUnits[k], s.count, s.outliers),
         kPlain, true);
     const int height = std::max(1, block - 1);
     const double range = DrawResidualPlot(model, k, y + 1, plot_x, plot_w, height, state.glyphs);
-    Put(y + 1, 0, Format("%+.3g", range));
-    Put(y + height, 0, Format("%+.3g", -range));
+    Put(y + 1, 0, calib::Formatted("%+.3g", range));
+    Put(y + height, 0, calib::Formatted("%+.3g", -range));
     // Histogram of all inliers over the same symmetric range, with its axis on the bottom row.
     const int bar_h = std::max(1, height - 1);
     const calib::Histogram h = model.ResidualHistogram(k, bins, range / scale);
@@ -278,13 +280,13 @@ void DrawResiduals(const calib::DashboardModel& model, const ViewState& state) {
     for (int c : h.counts) columns.insert(columns.end(), bin_w, c);
     const std::vector<std::string> bars = calib::BarColumns(columns, bar_h, state.glyphs);
     for (int r = 0; r < bar_h; ++r) Put(y + 1 + r, hist_x, bars[r], kTitle);
-    const std::string lo = Format("%.2g", -range), hi = Format("%+.2g", range);
+    const std::string lo = calib::Formatted("%.2g", -range), hi = calib::Formatted("%+.2g", range);
     std::string axis(hist_w, ' ');
     axis.replace(0, lo.size(), lo);
     axis.replace(std::max<int>(0, hist_w - static_cast<int>(hi.size())), hi.size(), hi);
     axis[hist_w / 2] = '0';
     if (height > 1) Put(y + height, hist_x, axis);
-    Put(y, hist_x, Format("histogram %s", kComponentUnits[k]));
+    Put(y, hist_x, calib::Formatted("histogram %s", kComponentUnits[k]));
   }
 }
 
@@ -293,14 +295,16 @@ void DrawParameters(const calib::DashboardModel& model, int64_t now_us, const Vi
   const std::vector<calib::ParameterView> params = model.Parameters();
   if (params.empty()) return;
   const bool two_rows = RowsLeft(y) >= 2 * static_cast<int>(params.size());
-  const int spark_w = two_rows ? std::max(0, (COLS - 24) / 2) : std::max(0, COLS - 62);
+  const int spark_w = two_rows ? std::max(0, (COLS - 24) / 2) : 0;
   for (const calib::ParameterView& p : params) {
     if (RowsLeft(y) < 1) break;
-    std::string line = Format("%-14s %10s +- %s  nominal %.4f", Clip(p.name, 14).c_str(), Value(p.value).c_str(),
-                              Sigma(p.std).c_str(), p.nominal);
+    const std::string unit = p.unit.empty() ? "" : " " + p.unit;
+    std::string line = calib::Formatted("%-14s %10s +- %s%s  nominal %.4f%s", Clip(p.name, 14).c_str(),
+                                        Value(p.value).c_str(), Sigma(p.std).c_str(), unit.c_str(), p.nominal,
+                                        unit.c_str());
     Put(y, 0, line, kPlain, true);
     const std::string conv = p.converged ? "converged"
-                             : p.last_change_sigmas >= 0 ? Format("last step %.1f sig", p.last_change_sigmas)
+                             : p.last_change_sigmas >= 0 ? calib::Formatted("last step %.1f sig", p.last_change_sigmas)
                                                          : "";
     if (two_rows) {
       Put(y, std::max(Cells(line) + 2, COLS - Cells(conv)), conv, p.converged ? kGood : kWarn);
@@ -310,7 +314,8 @@ void DrawParameters(const calib::DashboardModel& model, int64_t now_us, const Vi
       Put(y, 11 + spark_w, "sigma");
       Put(y, 18 + spark_w, calib::Sparkline(p.stds, spark_w, state.glyphs), kTitle);
     } else {
-      Put(y, 60, calib::Sparkline(p.values, spark_w, state.glyphs), p.converged ? kGood : kWarn);
+      const int x = std::max(60, Cells(line) + 2);  // after the line, units included
+      Put(y, x, calib::Sparkline(p.values, std::max(0, COLS - x - 2), state.glyphs), p.converged ? kGood : kWarn);
     }
     ++y;
   }
@@ -324,12 +329,12 @@ void DrawBus(const calib::DashboardModel& model, int64_t now_us) {
   const int reserve = 3 + static_cast<int>(processes.size());
   for (const calib::ChannelView& c : channels) {
     if (RowsLeft(y) <= std::min(reserve, RowsLeft(y) - 1)) break;
-    const std::string data_hz = c.data_rate_hz > 0 ? Format("%8.1f", c.data_rate_hz) : "       -";
-    Put(y, 0, Format("%-18s %-18s %7lld %8.1f %s %7s", Clip(c.name, 18).c_str(),
+    const std::string data_hz = c.data_rate_hz > 0 ? calib::Formatted("%8.1f", c.data_rate_hz) : "       -";
+    Put(y, 0, calib::Formatted("%-18s %-18s %7lld %8.1f %s %7s", Clip(c.name, 18).c_str(),
                      c.type.empty() ? "?" : Clip(c.type, 18).c_str(),
                      static_cast<long long>(c.count), c.rate_hz, data_hz.c_str(), Age(c.age_s).c_str()));
     std::string state = c.stale ? "STALE" : "ok";
-    if (c.undecodable) state += Format(" %lld bad", static_cast<long long>(c.undecodable));
+    if (c.undecodable) state += calib::Formatted(" %lld bad", static_cast<long long>(c.undecodable));
     Put(y++, 72, state, c.stale || c.undecodable ? kBad : kGood);
   }
   if (RowsLeft(y) >= 2) {
@@ -340,7 +345,7 @@ void DrawBus(const calib::DashboardModel& model, int64_t now_us) {
   }
   for (const calib::ProcessView& p : processes) {
     if (RowsLeft(y) < 2) break;
-    Put(y, 0, Format("%-14s %6d  %-30s %7s %9d", Clip(p.name, 14).c_str(), p.pid, ClipWords(p.state, 30).c_str(),
+    Put(y, 0, calib::Formatted("%-14s %6d  %-30s %7s %9d", Clip(p.name, 14).c_str(), p.pid, ClipWords(p.state, 30).c_str(),
                      Age(p.age_s).c_str(), p.restarts));
     Put(y++, 72, p.stale ? "STALE" : "ok", p.stale ? kBad : kGood);
   }
@@ -352,7 +357,7 @@ void DrawBus(const calib::DashboardModel& model, int64_t now_us) {
       Put(y, 10, "none (no COMMANDER_STATUS)");
     else
       Put(y, 10,
-          Format("%s, trajectory %s, segment %d/%d %s, %s ago", c.state.c_str(), c.trajectory.c_str(),
+          calib::Formatted("%s, trajectory %s, segment %d/%d %s, %s ago", c.state.c_str(), c.trajectory.c_str(),
                  c.segment + 1, c.num_segments, c.segment_name.c_str(), Age(c.age_s).c_str()),
           c.stale || c.state != "running" ? kWarn : kGood);
   }

@@ -21,9 +21,6 @@ const char* kNominal = "#999999";
 const char* kCalibrated = "#1f5fbf";
 const char* kOutlier = "#d62728";
 
-bool EndsWith(const std::string& s, const std::string& tail) {
-  return s.size() >= tail.size() && s.compare(s.size() - tail.size(), tail.size(), tail) == 0;
-}
 
 // The value in the unit a person reads it in: mm beside m, deg beside rad, ms beside s (a
 // negative sigma: rounded to |sigma| without showing it, ValueWithSigma).
@@ -57,10 +54,11 @@ std::vector<std::pair<std::string, Estimate>> Estimates(const CalibrationResult&
 std::vector<std::vector<std::string>> ParameterRows(const CalibrationResult& r) {  // kParameterHeader
   std::vector<std::vector<std::string>> rows;
   for (const auto& [name, e] : Estimates(r)) {
-    const std::string unit = CalibratedValueUnit(name);
+    const std::string unit = ParamUnit(name);
     const double change = e.value - e.nominal;
-    rows.push_back({name, ValueWithSigma(e.value, e.std) + " " + unit, Readable(e.value, e.std, unit),
-                    ValueWithSigma(e.nominal, 0) + " " + unit, Readable(change, -e.std, unit),
+    const std::string suffix = unit.empty() ? "" : " " + unit;
+    rows.push_back({name, ValueWithSigma(e.value, e.std) + suffix, Readable(e.value, e.std, unit),
+                    ValueWithSigma(e.nominal, 0) + suffix, Readable(change, -e.std, unit),
                     e.std > 0 ? FixedDecimals(change / e.std, 1) : "held"});
   }
   return rows;
@@ -143,7 +141,7 @@ std::string ResidualHistogramPlot(const std::vector<IntervalResidual>& iv, const
 }
 
 std::string HeldoutWindowsPlot(const HeldoutComparison& h, int64_t t0) {
-  SvgPlot plot("Held-out windows of " + SignificantDigits(h.window_m, 2) +
+  SvgPlot plot("Held-out windows of " + SignificantText(h.window_m, 2) +
                " m path: odometry error at each window's end, nominal (grey) and calibrated (blue)");
   SvgPlot::Panel& p = plot.AddPanel("position error at the window's end (mm)", SvgPlot::kTimeAxis, "mm");
   SvgPlot::Series b{{}, {}, kNominal, "nominal", true, {}, {}}, a{{}, {}, kCalibrated, "calibrated", true, {}, {}};
@@ -211,7 +209,7 @@ void AddCalibration(const CalibrationResult& r, int64_t t0, const std::string& b
   if (r.heldout) {
     page->Heading("Held-out windows");
     const HeldoutComparison& h = *r.heldout;
-    page->Paragraph("Odometry chained over windows of " + SignificantDigits(h.window_m, 2) + " m of path on the " +
+    page->Paragraph("Odometry chained over windows of " + SignificantText(h.window_m, 2) + " m of path on the " +
                     std::to_string(h.intervals) + " held-out intervals, which the fit did not see. Calibrated better in " +
                     std::to_string(h.paired.second_better) + " of " + std::to_string(h.paired.windows - h.paired.ties) +
                     " windows (sign test " + PValueText(h.paired.sign_test_p) + ").");
@@ -277,19 +275,11 @@ std::vector<std::vector<std::string>> InUseRows(const CalibrationInUse& start, c
     return "-";
   };
   for (const std::string& name : end.names)
-    rows.push_back({name, at(start, name), at(end, name), CalibratedValueUnit(name)});
+    rows.push_back({name, at(start, name), at(end, name), ParamUnit(name)});
   return rows;
 }
 
 }  // namespace
-
-const char* CalibratedValueUnit(const std::string& name) {
-  if (EndsWith(name, "time_offset")) return "s";
-  if (name == "imu.gyro_bias") return "rad/s";
-  if (name == "imu.gyro_scale") return "1";
-  if (EndsWith(name, "yaw") || EndsWith(name, "steer_offset")) return "rad";
-  return "m";
-}
 
 std::string SolveReportSummary(const CalibrationResult& r, const std::string& log_path) {
   std::ostringstream s;

@@ -35,13 +35,6 @@ using yaml::Reporter;
 // Wheel data kept either side of a segment, so that every motion inside is covered.
 constexpr double kMarginS = 0.2;
 
-std::string Num(double v, int digits = 3) {
-  std::ostringstream out;
-  out.precision(digits);
-  out << v;
-  return out.str();
-}
-
 double PositiveOr(const Reporter& r, const CheckedMap& map, const std::string& key, double fallback) {
   const auto f = map.Find(key);
   return f ? ReadPositive(r, *f) : fallback;
@@ -595,19 +588,19 @@ RecalDecision Decide(const SegmentBatch& batch, const CalibrationInUse& in_use,
   const ImprovementTest& imp = *d.improvement;
   const ConsistencyTest& con = *d.consistency;
   const std::string heldout_text =
-      "held-out odometry error " + Num(imp.mean_current * 100) + " -> " + Num(imp.mean_candidate * 100) +
+      "held-out odometry error " + Formatted("%.3g", imp.mean_current * 100) + " -> " + Formatted("%.3g", imp.mean_candidate * 100) +
       " cm/m over " + std::to_string(heldout.size()) + " segments (" + (imp.relative < 0 ? "+" : "") +
-      Num(-imp.relative * 100, 2) +
-      "%, t = " + Num(imp.t) + ", " + PValueText(imp.p);
+      Formatted("%.2g", -imp.relative * 100) +
+      "%, t = " + Formatted("%.3g", imp.t) + ", " + PValueText(imp.p);
   const std::string consistency_text =
-      "d2 = " + Num(con.d2) + ", " + std::to_string(con.dof) + " dof, " + PValueText(con.p) +
-      (con.consistent ? " >= " : " < ") + Num(config.consistency_alpha) + "; largest change " +
-      con.largest + " " + Num(con.largest_sigmas, 2) + " sigma";
+      "d2 = " + Formatted("%.3g", con.d2) + ", " + std::to_string(con.dof) + " dof, " + PValueText(con.p) +
+      (con.consistent ? " >= " : " < ") + Formatted("%.3g", config.consistency_alpha) + "; largest change " +
+      con.largest + " " + Formatted("%.2g", con.largest_sigmas) + " sigma";
   const std::string better = imp.significant
-                                 ? "significantly better: " + heldout_text + " < " + Num(config.alpha) + ")"
+                                 ? "significantly better: " + heldout_text + " < " + Formatted("%.3g", config.alpha) + ")"
                                  : "not significantly better: " + heldout_text + "; needs p < " +
-                                       Num(config.alpha) + " and at least " +
-                                       Num(config.min_improvement * 100) + "% less error)";
+                                       Formatted("%.3g", config.alpha) + " and at least " +
+                                       Formatted("%.3g", config.min_improvement * 100) + "% less error)";
   const std::string consistent =
       std::string(con.consistent ? "consistent" : "inconsistent") + " with the calibration in use: " + consistency_text;
   if (imp.significant && con.consistent) {

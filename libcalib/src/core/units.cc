@@ -2,6 +2,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <cstdarg>
 #include <cstdio>
 #include <map>
 
@@ -10,13 +11,27 @@ namespace {
 
 constexpr double kDegPerRad = 57.295779513082320876;
 
-std::string Printf(const char* format, int digits, double value) {
-  char buffer[64];
-  std::snprintf(buffer, sizeof buffer, format, digits, value);
+}  // namespace
+
+std::string Formatted(const char* format, ...) {
+  char buffer[512];
+  va_list args;
+  va_start(args, format);
+  std::vsnprintf(buffer, sizeof buffer, format, args);
+  va_end(args);
   return buffer;
 }
 
-}  // namespace
+std::string FixedDecimals(double value, int decimals) { return Formatted("%.*f", decimals, value); }
+
+std::string ValueWithSigma(double value, double sigma) {
+  if (!std::isfinite(value)) return "n/a";
+  const double s = std::abs(sigma);
+  const int decimals = DecimalsForSigma(s);
+  if (decimals < 0 || decimals > 15) return Formatted("%.6g", value) + (std::isinf(s) ? " ± undetermined" : "");
+  if (sigma < 0) return RoundedToSigma(value, s);
+  return RoundedToSigma(value, s) + " ± " + FixedDecimals(s, decimals);
+}
 
 std::string ParamUnit(const std::string& key) {
   const std::string k = key.substr(key.rfind('.') == std::string::npos ? 0 : key.rfind('.') + 1);
@@ -27,7 +42,7 @@ std::string ParamUnit(const std::string& key) {
       {"gyro_scale", ""}, {"distance", "m"},
       // spec/effects.md
       {"offset_s", "s"}, {"scan_period_s", "s"}, {"slip_per_accel", "s²/m"}, {"gain", "s"}, {"tau_s", "s"},
-      {"width_rad", "rad"}, {"amplitude", ""}, {"phase", "rad"}, {"rate_rad_s", "rad/s"}, {"offset_rad", "rad"}};
+      {"width_rad", "rad"}, {"amplitude", "(relative)"}, {"phase", "rad"}, {"rate_rad_s", "rad/s"}, {"offset_rad", "rad"}};
   const auto it = kUnits.find(k);
   if (it != kUnits.end()) return it->second;
   auto ends_with = [&k](const std::string& tail) {
@@ -40,7 +55,7 @@ std::string ParamUnit(const std::string& key) {
 
 std::string PValueNumber(double p) {
   if (!(p >= 1e-12)) return std::isnan(p) ? "n/a" : "< 1e-12";
-  return Printf("%.*g", 2, p);
+  return Formatted("%.2g", p);
 }
 
 std::string PValueText(double p) {
@@ -61,9 +76,9 @@ std::string SignificantText(double value, int significant) {
   if (!std::isfinite(value)) return std::isnan(value) ? "nan" : (value > 0 ? "inf" : "-inf");
   if (value == 0) return "0";
   const int exponent = static_cast<int>(std::floor(std::log10(std::abs(value))));
-  if (exponent < -6 || exponent >= 9) return Printf("%.*e", significant - 1, value);
+  if (exponent < -6 || exponent >= 9) return Formatted("%.*e", significant - 1, value);
   const int decimals = std::max(0, significant - 1 - exponent);
-  std::string text = Printf("%.*f", decimals, value);
+  std::string text = FixedDecimals(value, decimals);
   if (text == "-0") text = "0";
   return text;
 }
@@ -77,7 +92,7 @@ std::string RoundedToSigma(double value, double sigma, int significant) {
       text.insert(text.find('e'), ".0");
     return text;
   }
-  std::string text = Printf("%.*f", decimals, value);
+  std::string text = FixedDecimals(value, decimals);
   if (text.find_first_not_of("-0.") == std::string::npos && text[0] == '-') text.erase(0, 1);  // no "-0.00"
   return text;
 }
@@ -90,18 +105,13 @@ std::string QuantityText(double value, const std::string& unit, int significant)
 }
 
 std::string EstimateText(double value, double sigma, const std::string& unit) {
-  auto pair = [](double v, double s) {
-    const int decimals = DecimalsForSigma(s);
-    return (decimals < 0 ? SignificantText(v, 6) : RoundedToSigma(v, s)) + " ± " +
-           (std::isfinite(s) ? (decimals < 0 ? SignificantText(s, 2) : Printf("%.*f", decimals, s)) : "undetermined");
-  };
-  std::string text = pair(value, sigma);
+  std::string text = ValueWithSigma(value, sigma);
   if (!unit.empty()) text += " " + unit;
-  if (unit == "rad") text += " (" + pair(value * kDegPerRad, sigma * kDegPerRad) + " deg)";
+  if (unit == "rad") text += " (" + ValueWithSigma(value * kDegPerRad, sigma * kDegPerRad) + " deg)";
   return text;
 }
 
-std::string MillimetresText(double metres, int decimals) { return Printf("%.*f", decimals, metres * 1e3) + " mm"; }
+std::string MillimetresText(double metres, int decimals) { return FixedDecimals(metres * 1e3, decimals) + " mm"; }
 
 std::string AngleText(double radians, int significant) { return QuantityText(radians, "rad", significant); }
 

@@ -4,6 +4,8 @@
 #include <cmath>
 #include <cstdio>
 
+#include "calib/core/units.h"
+
 namespace calib {
 
 bool WheelTrack::Append(const WheelSample& sample) {
@@ -77,12 +79,6 @@ Pose2 WheelTrack::Odometry(const DriveModel& model, double t0, double t1) const 
 
 namespace {
 
-std::string Format(const char* format, double a, double b = 0.0, double c = 0.0) {
-  char buffer[160];
-  std::snprintf(buffer, sizeof buffer, format, a, b, c);
-  return buffer;
-}
-
 constexpr std::size_t kSpacingWindow = 15;  // intervals in the median of the usual spacing
 
 }  // namespace
@@ -101,7 +97,7 @@ std::vector<WheelSample> WheelSampleGate::Add(const WheelSample& sample, const s
     if (sample.utime > held_->sample.utime) {
       Pass(held_->sample, &out);  // the gap was real
     } else if (sample.utime > last_->utime) {
-      Drop(held_->origin, Format("stamp %.6f s after the previous sample's, %.6f s after the next one's: "
+      Drop(held_->origin, Formatted("stamp %.6f s after the previous sample's, %.6f s after the next one's: "
                                  "dropped alone",
                                  double(held_->sample.utime - last_->utime) * 1e-6,
                                  double(held_->sample.utime - sample.utime) * 1e-6));
@@ -137,8 +133,8 @@ void WheelSampleGate::Take(const WheelSample& sample, const std::string& origin,
     const double jump = sample.position[i] - last_->position[i];
     const double limit = options_.speed_factor * max_rate_[i] * std::max(dt, spacing);
     if (std::abs(jump) > limit) {
-      Drop(origin, "wheel '" + names_[i] + "' position jumps " + Format("%+.6g rad in %.6g s", jump, dt) +
-                       Format(", more than %.6g rad (%g x limits.max_speed / radius): dropped", limit,
+      Drop(origin, "wheel '" + names_[i] + "' position jumps " + Formatted("%+.6g rad in %.6g s", jump, dt) +
+                       Formatted(", more than %.6g rad (%g x limits.max_speed / radius): dropped", limit,
                               options_.speed_factor));
       return;
     }

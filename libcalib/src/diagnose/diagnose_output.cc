@@ -28,16 +28,6 @@ nlohmann::json Spans(const std::vector<TimeSpan>& spans, int64_t origin) {
   return j;
 }
 
-// "12.3-15.0 s, 40.1-44.0 s, ... (N spans)": the first spans, seconds since the origin.
-std::string SpanTimes(const std::vector<TimeSpan>& spans, int64_t origin) {
-  std::ostringstream s;
-  s.setf(std::ios::fixed);
-  s.precision(1);
-  for (std::size_t i = 0; i < spans.size() && i < 5; ++i)
-    s << (i ? ", " : "") << Since(spans[i].utime_start, origin) << "-" << Since(spans[i].utime_end, origin) << " s";
-  if (spans.size() > 5) s << ", ...";
-  return s.str();
-}
 
 nlohmann::json Params(const std::map<std::string, ParamEstimate>& params) {
   nlohmann::json j = nlohmann::json::object();
@@ -52,13 +42,6 @@ std::string Percent(double before, double after) {
   return s.str();
 }
 
-const char* Unit(const std::string& component) {
-  if (component == "yaw" || component == "heading") return "rad";
-  if (component == "speed") return "rad/s";
-  if (component == "steer") return "rad";
-  return "m";
-}
-
 // "before -> after unit": lengths in mm, angles in rad with degrees beside (units.h).
 std::string BeforeAfter(double before, double after, const std::string& unit) {
   if (unit == "m") return MillimetresText(before, 3) + " -> " + MillimetresText(after, 3);
@@ -66,6 +49,15 @@ std::string BeforeAfter(double before, double after, const std::string& unit) {
 }
 
 }  // namespace
+
+std::string SpanTimes(const std::vector<TimeSpan>& spans, int64_t origin, std::size_t shown) {
+  std::string text;
+  for (std::size_t i = 0; i < spans.size() && i < shown; ++i)
+    text += (i ? ", " : "") + FixedDecimals(Since(spans[i].utime_start, origin), 1) + "–" +
+            FixedDecimals(Since(spans[i].utime_end, origin), 1) + " s";
+  if (spans.size() > shown) text += ", … (" + std::to_string(spans.size()) + " spans)";
+  return text;
+}
 
 int64_t ReportTimeOrigin(const DiagnoseReport& r) {
   return r.recording_start_utime ? r.recording_start_utime : r.intervals.empty() ? 0 : r.intervals.front().utime_start;
@@ -80,6 +72,13 @@ std::string EffectSizeKey(const std::string& effect_name) {
       {"steering_rate_limit", "rate_rad_s"}, {"travel_direction_offset", "offset_rad"}};
   const auto it = kKeys.find(effect_name);
   return it == kKeys.end() ? "" : it->second;
+}
+
+std::string ComponentUnit(const std::string& component) {
+  const std::string first = component.substr(0, component.find(' '));
+  if (first == "yaw" || first == "heading" || first == "steer") return "rad";
+  if (first == "speed") return "rad/s";
+  return "m";
 }
 
 const char* CandidateStatusName(CandidateStatus status) {
@@ -221,20 +220,20 @@ std::string DiagnoseSummaryText(const DiagnoseReport& r) {
       s << "  on the floor: x " << (*e.region)[0] << " to " << (*e.region)[2] << " m, y " << (*e.region)[1] << " to "
         << (*e.region)[3] << " m (odometry frame)\n";
     s << "  held-out " << e.component << " residual where it acts: "
-      << BeforeAfter(e.heldout_rms_before, e.heldout_rms_after, Unit(e.component)) << " ("
+      << BeforeAfter(e.heldout_rms_before, e.heldout_rms_after, ComponentUnit(e.component)) << " ("
       << Percent(e.heldout_rms_before, e.heldout_rms_after) << " lower); over all held-out data "
-      << BeforeAfter(e.heldout_rms_all_before, e.heldout_rms_all_after, Unit(e.component)) << " ("
+      << BeforeAfter(e.heldout_rms_all_before, e.heldout_rms_all_after, ComponentUnit(e.component)) << " ("
       << Percent(e.heldout_rms_all_before, e.heldout_rms_all_after) << ")" << judges("per_interval");
     if (!e.stretches.empty()) {
       s << "  held-out " << e.component << " error chained over the stretch of each held-out block where it acts most ("
         << e.stretches.size() << " stretches): "
-        << BeforeAfter(e.heldout_stretch_before, e.heldout_stretch_after, Unit(e.component)) << " ("
+        << BeforeAfter(e.heldout_stretch_before, e.heldout_stretch_after, ComponentUnit(e.component)) << " ("
         << Percent(e.heldout_stretch_before, e.heldout_stretch_after) << " lower)" << judges("stretch");
     }
     if (!e.drift_component.empty()) {
       s << "  held-out dead-reckoning " << e.drift_component << " error over " << e.drift_window_s << " s ("
         << e.drift_windows << " windows): "
-        << BeforeAfter(e.heldout_drift_before, e.heldout_drift_after, Unit(e.drift_component)) << " ("
+        << BeforeAfter(e.heldout_drift_before, e.heldout_drift_after, ComponentUnit(e.drift_component)) << " ("
         << Percent(e.heldout_drift_before, e.heldout_drift_after) << " lower)" << judges("drift");
     }
   }

@@ -116,7 +116,7 @@ std::string RoutePlot(const DiagnoseReport& r) {
   return plot.Render();
 }
 
-std::string TraceUnit(const DiagnoseReport::Trace& tr) { return tr.name.rfind("speed", 0) == 0 ? "rad/s" : "rad"; }
+std::string TraceUnit(const DiagnoseReport::Trace& tr) { return ComponentUnit(tr.name); }
 
 std::string ActuationPlot(const DiagnoseReport::Trace& tr, const Clock& sec) {
   SvgPlot plot("Actuation: " + tr.name + " measured (black), commanded model (grey), with the effects found (blue)");
@@ -174,37 +174,17 @@ std::string ActuationZoomPlot(const DiagnoseReport::Trace& tr, const std::vector
   return plot.Render();
 }
 
-// The unit of an effect parameter (effects.md) by its key.
-std::string EffectParamUnit(const std::string& key) {
-  if (key == "slip_per_accel") return "s²/m";
-  if (key == "gain") return "s";
-  if (key == "amplitude") return "(relative)";
-  if (key == "rate_rad_s") return "rad/s";
-  if (key == "phase" || (key.size() > 4 && key.compare(key.size() - 4, 4, "_rad") == 0)) return "rad";
-  return "s";  // offset_s, scan_period_s, tau_s
-}
-
-// The unit of a candidate's estimate: that of its first parameter.
-std::string CandidateUnit(const std::string& name) {
-  if (name == "longitudinal_slip") return EffectParamUnit("slip_per_accel");
-  if (name == "lateral_slip") return EffectParamUnit("gain");
-  if (name == "wheel_eccentricity") return EffectParamUnit("amplitude");
-  if (name == "steering_backlash") return EffectParamUnit("width_rad");
-  if (name == "travel_direction_offset") return EffectParamUnit("offset_rad");
-  if (name == "steering_rate_limit") return EffectParamUnit("rate_rad_s");
-  return "s";
-}
 
 std::vector<std::vector<std::string>> CandidateRows(const DiagnoseReport& r) {
   std::vector<std::vector<std::string>> rows;
   for (const CandidateOutcome& c : r.candidates) {
-    const std::string unit = CandidateUnit(c.name);
+    const std::string unit = ParamUnit(EffectSizeKey(c.name));
     std::string reason = c.note;
     if (reason.empty() && c.status == CandidateStatus::kFound) reason = "significant and proven on held-out data";
     if (reason.empty() && c.status == CandidateStatus::kNotSignificant) reason = "not beyond the false-alarm level";
     rows.push_back({c.name + (c.wheel.empty() ? "" : " (" + c.wheel + ")"), c.layer, CandidateStatusName(c.status),
-                    ValueWithSigma(c.estimate.value, c.estimate.std) + " " + unit,
-                    std::isfinite(c.detectable) && c.detectable > 0 ? SignificantDigits(c.detectable, 2) + " " + unit : "-",
+                    EstimateText(c.estimate.value, c.estimate.std, unit),
+                    std::isfinite(c.detectable) && c.detectable > 0 ? QuantityText(c.detectable, unit, 3) : "-",
                     PValueNumber(c.p_adjusted), reason});
   }
   return rows;
@@ -214,9 +194,9 @@ std::vector<std::vector<std::string>> CalibrationRows(const DiagnoseReport& r) {
   std::vector<std::vector<std::string>> rows;
   for (const auto& [name, base] : r.calibration) {
     const auto it = r.refitted.find(name);
-    const std::string unit = CalibratedValueUnit(name);
-    rows.push_back({name, ValueWithSigma(base.value, base.std) + " " + unit,
-                    it == r.refitted.end() ? "-" : ValueWithSigma(it->second.value, it->second.std) + " " + unit});
+    const std::string unit = ParamUnit(name);
+    rows.push_back({name, EstimateText(base.value, base.std, unit),
+                    it == r.refitted.end() ? "-" : EstimateText(it->second.value, it->second.std, unit)});
   }
   return rows;
 }
@@ -225,10 +205,8 @@ std::vector<std::vector<std::string>> EffectRows(const DiagnoseReport& r, const 
   std::vector<std::vector<std::string>> rows;
   for (const FoundEffect& e : r.effects) {
     std::string size, where;
-    for (const auto& [k, v] : e.params) size += (size.empty() ? "" : ", ") + k + " = " + ValueWithSigma(v.value, v.std) + " " + EffectParamUnit(k);
-    for (std::size_t i = 0; i < e.where.size() && i < 6; ++i)
-      where += (i ? ", " : "") + FixedDecimals(sec(e.where[i].utime_start), 1) + "–" + FixedDecimals(sec(e.where[i].utime_end), 1) + " s";
-    if (e.where.size() > 6) where += ", … (" + std::to_string(e.where.size()) + " spans)";
+    for (const auto& [k, v] : e.params) size += (size.empty() ? "" : ", ") + k + " = " + EstimateText(v.value, v.std, ParamUnit(k));
+    where = SpanTimes(e.where, sec.t0);
     if (e.region)
       where += "; on the floor x " + FixedDecimals((*e.region)[0], 2) + "–" + FixedDecimals((*e.region)[2], 2) + " m, y " +
                FixedDecimals((*e.region)[1], 2) + "–" + FixedDecimals((*e.region)[3], 2) + " m";

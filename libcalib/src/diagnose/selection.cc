@@ -59,9 +59,8 @@ SingleVerdicts JudgeSingles(const std::vector<SingleFit>& fits, const SelectionL
       o.status = CandidateStatus::kRejected;  // until the selection chooses it
     } else if (!(o.detectable < f.plausible)) {
       o.status = CandidateStatus::kNotIdentifiable;
-      const std::string unit = ParamUnit(EffectSizeKey(f.name));
-      o.note = "this recording could only detect it above " + QuantityText(o.detectable, unit, 3) +
-               (unit.empty() ? " (relative)" : "") + "; drive " + f.excitation;
+      o.note = "this recording could only detect it above " +
+               QuantityText(o.detectable, ParamUnit(EffectSizeKey(f.name)), 3) + "; drive " + f.excitation;
     } else {
       o.status = CandidateStatus::kNotSignificant;
     }

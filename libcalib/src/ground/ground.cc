@@ -11,6 +11,7 @@
 #include <Eigen/Geometry>
 
 #include "calib/core/errors.h"
+#include "calib/core/units.h"
 #include "ground/sac_plane.h"
 
 namespace calib {
@@ -19,14 +20,6 @@ namespace {
 
 constexpr double kPi = 3.14159265358979323846;
 constexpr double kDeg = kPi / 180.0;
-
-std::string Fixed(double value, int digits) {
-  std::ostringstream out;
-  out.setf(std::ios::fixed);
-  out.precision(digits);
-  out << value;
-  return out.str();
-}
 
 Eigen::Matrix3d Rotation(double yaw, double pitch, double roll) {
   return (Eigen::AngleAxisd(yaw, Eigen::Vector3d::UnitZ()) *
@@ -405,11 +398,11 @@ std::string FloorProblem(const FrameFit& fit, const Mount3d& nominal, const Floo
     return "too few floor points (" + std::to_string(fit.inliers) + " < " +
            std::to_string(options.min_floor_points) + ")";
   } else if (tilt > options.max_tilt_rad || std::abs(d - nominal.z) > options.window_m) {
-    return "the plane found is " + Fixed(tilt / kDeg, 2) + " deg and " +
-           Fixed(d - nominal.z, 3) + " m away from the nominal floor";
+    return "the plane found is " + FixedDecimals(tilt / kDeg, 2) + " deg and " +
+           FixedDecimals(d - nominal.z, 3) + " m away from the nominal floor";
   } else if (fit.extent_m < options.min_floor_extent_m) {
-    return "the floor is seen only in a narrow strip (spread " + Fixed(fit.extent_m, 2) +
-           " m < " + Fixed(options.min_floor_extent_m, 2) + " m)";
+    return "the floor is seen only in a narrow strip (spread " + FixedDecimals(fit.extent_m, 2) +
+           " m < " + FixedDecimals(options.min_floor_extent_m, 2) + " m)";
   } else if (fit.below_share > options.max_below_share) {
     return "many points lie below the plane found (" + std::to_string(below) +
            " against " + std::to_string(fit.inliers) + " on it): it is not the floor";
@@ -555,7 +548,7 @@ FrameFit FitFloor(const float* xyz, size_t count, const Mount3d& nominal,
 
   const auto sac = ConsensusPlane(candidates, fit.candidates, up0, options);
   if (!sac) {
-    fit.problem = "no plane within " + Fixed(options.max_tilt_rad / kDeg, 1) +
+    fit.problem = "no plane within " + FixedDecimals(options.max_tilt_rad / kDeg, 1) +
                   " deg of the nominal floor among the points near it";
     return fit;
   }
@@ -809,9 +802,9 @@ MountEstimate GroundCalibrator::Combine(int sector, std::vector<const Frame*>* u
     throw UnobservableError(
         "3D lidar height, pitch and roll" + where + ": the floor is not one level plane across frames: " +
             std::to_string(tilted) + " of " + std::to_string(usable.size()) +
-            " frames tilt against the others by up to " + Fixed(split.worst_tilt / kDeg, 2) + " deg / " +
-            Fixed(split.worst_height, 3) + " m (limits " + Fixed(fo.max_tilt_rad / kDeg, 2) + " deg, " +
-            Fixed(fo.max_height_m, 3) + " m)",
+            " frames tilt against the others by up to " + FixedDecimals(split.worst_tilt / kDeg, 2) + " deg / " +
+            FixedDecimals(split.worst_height, 3) + " m (limits " + FixedDecimals(fo.max_tilt_rad / kDeg, 2) + " deg, " +
+            FixedDecimals(fo.max_height_m, 3) + " m)",
         "the robot stood on a slope, ramp or uneven floor in part of the recording: record on a "
         "level floor");
   }
@@ -858,8 +851,8 @@ GroundResult GroundCalibrator::Result(bool with_grid) const {
       try {
         sector.estimate = Estimate(s);
       } catch (const UnobservableError& e) {
-        missing.push_back(std::to_string(s) + " (" + Fixed(sector.angle_min / kDeg, 1) + ".." +
-                          Fixed(sector.angle_max / kDeg, 1) + " deg)");
+        missing.push_back(std::to_string(s) + " (" + FixedDecimals(sector.angle_min / kDeg, 1) + ".." +
+                          FixedDecimals(sector.angle_max / kDeg, 1) + " deg)");
         if (first_problem.empty()) first_problem = e.what();
         continue;
       }

@@ -4,6 +4,7 @@
 #include <cmath>
 #include <cstdio>
 
+#include "calib/core/units.h"
 #include "calib/ground/ground.h"
 #include "calib/ground/ground_session.h"
 #include "calib/io/atomic_file.h"

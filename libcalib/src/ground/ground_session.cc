@@ -26,12 +26,6 @@ const Mount3d& RequireLidar3d(const RobotDescription& robot) {
   return *robot.lidar3d;
 }
 
-std::string Format(const char* format, double value) {
-  char buffer[64];
-  std::snprintf(buffer, sizeof buffer, format, value);
-  return buffer;
-}
-
 }  // namespace
 
 GroundSession::GroundSession(const RobotDescription& robot, GroundOptions options)
@@ -62,7 +56,7 @@ const FrameFit* GroundSession::OnCloud(const PointCloud& cloud) {
     if (!best || cloud.utime - best->first > static_cast<int64_t>(std::llround(max_age_s_ * 1e6))) {
       last_sector_ = -1;
       calibrator_.SkipFrame("no mount angle on " + angle_channel_ + " within " +
-                            Format("%g", max_age_s_) + " s before the cloud");
+                            Formatted("%g", max_age_s_) + " s before the cloud");
       return nullptr;
     }
     angle = best->second;
@@ -201,11 +195,11 @@ std::string GroundResultText(const GroundResult& result, const GroundInput& inpu
     out << "; " << result.sectors.size() << " sectors, below: sector " << home << " (holding angle 0)";
   }
   out << "; " << e.frames << " frames used, " << e.frames_tilted << " tilted, floor inliers "
-      << Format("%.1f", 100 * e.inliers) << " %, floor RMS " << Format("%.1f", 1000 * e.rms_m) << " mm\n";
+      << Formatted("%.1f", 100 * e.inliers) << " %, floor RMS " << Formatted("%.1f", 1000 * e.rms_m) << " mm\n";
   out << "  robust fit (value ± 1 sigma)";
   if (result.grid)
     out << "; grid search (" << (result.grid->accepted ? "accepted" : "NOT accepted") << ", "
-        << result.grid->rounds << " rounds, height error " << Format("%.1f", 1000 * result.grid->height_error_m)
+        << result.grid->rounds << " rounds, height error " << Formatted("%.1f", 1000 * result.grid->height_error_m)
         << " mm)";
   out << "\n";
   // Radians, the robot file's unit, with degrees beside (units.h); the grid column alike.
@@ -220,16 +214,16 @@ std::string GroundResultText(const GroundResult& result, const GroundInput& inpu
   row("pitch", e.value.pitch, e.std.pitch, g.pose.pitch, g.step.pitch, "rad");
   row("roll ", e.value.roll, e.std.roll, g.pose.roll, g.step.roll, "rad");
   if (e.birge_ratio > 1.0)
-    out << "  (frames scatter " << Format("%.2f", e.birge_ratio)
+    out << "  (frames scatter " << Formatted("%.2f", e.birge_ratio)
         << " x their own sigmas; sigmas inflated by that)\n";
   if (!result.sectors.empty()) {
     out << "per sector: index   from deg    to deg  mean deg  frames       z m  pitch rad (deg)       roll rad (deg)\n";
     for (const SectorEstimate& s : result.sectors)
-      out << "            " << Format("%5.0f", s.index) << Format("%11.2f", s.angle_min / kDeg)
-          << Format("%10.2f", s.angle_max / kDeg) << Format("%10.2f", s.angle_mean / kDeg)
-          << Format("%8.0f", s.estimate.frames) << Format("%10.5f", s.estimate.value.z)
-          << Format("%10.6f", s.estimate.value.pitch) << Format(" (%7.4f)", s.estimate.value.pitch / kDeg)
-          << Format("%11.6f", s.estimate.value.roll) << Format(" (%7.4f)", s.estimate.value.roll / kDeg) << "\n";
+      out << "            " << Formatted("%5d", s.index) << Formatted("%11.2f", s.angle_min / kDeg)
+          << Formatted("%10.2f", s.angle_max / kDeg) << Formatted("%10.2f", s.angle_mean / kDeg)
+          << Formatted("%8d", s.estimate.frames) << Formatted("%10.5f", s.estimate.value.z)
+          << Formatted("%10.6f", s.estimate.value.pitch) << Formatted(" (%7.4f)", s.estimate.value.pitch / kDeg)
+          << Formatted("%11.6f", s.estimate.value.roll) << Formatted(" (%7.4f)", s.estimate.value.roll / kDeg) << "\n";
   }
   return out.str();
 }

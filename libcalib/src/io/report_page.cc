@@ -1,8 +1,5 @@
 #include "io/report_page.h"
 
-#include <algorithm>
-#include <cmath>
-#include <cstdio>
 
 namespace calib {
 namespace {
@@ -67,35 +64,5 @@ std::string ReportPage::Render() const {
          HtmlEscape(title_) + "</title><style>" + kStyle + "</style></head>\n<body>\n<h1>" + HtmlEscape(title_) +
          "</h1>\n" + body_ + "</body></html>\n";
 }
-
-std::string ValueWithSigma(double value, double sigma) {
-  char buf[64];
-  if (!std::isfinite(value)) return "n/a";
-  const double s = std::abs(sigma);
-  if (!(s > 0) || !std::isfinite(s)) {
-    std::snprintf(buf, sizeof buf, "%.6g", value);
-    return buf;
-  }
-  // Decimals that show two significant digits of sigma.
-  const int decimals = std::clamp(1 - static_cast<int>(std::floor(std::log10(s))), 0, 12);
-  if (sigma < 0)
-    std::snprintf(buf, sizeof buf, "%.*f", decimals, value);
-  else
-    std::snprintf(buf, sizeof buf, "%.*f ± %.*f", decimals, value, decimals, sigma);
-  return buf;
-}
-
-std::string FixedDecimals(double value, int decimals) {
-  char buf[64];
-  std::snprintf(buf, sizeof buf, "%.*f", decimals, value);
-  return buf;
-}
-
-std::string SignificantDigits(double value, int digits) {
-  char buf[64];
-  std::snprintf(buf, sizeof buf, "%.*g", digits, value);
-  return buf;
-}
-
 
 }  // namespace calib

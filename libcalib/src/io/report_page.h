@@ -25,14 +25,6 @@ class ReportPage {
   std::string body_;
 };
 
-// "1.2346 ± 0.0012": the value rounded to two significant digits of its sigma (six
-// significant digits with a sigma of 0 or not finite). A negative sigma: "1.2346", the value
-// rounded to |sigma| without showing it (a change, a difference).
-std::string ValueWithSigma(double value, double sigma);
-
-// "12.35" (FixedDecimals(12.345, 2)), "0.0036" (SignificantDigits(0.003556, 2)).
-std::string FixedDecimals(double value, int decimals);
-std::string SignificantDigits(double value, int digits);
-
+// Numbers in the pages: calib/core/units.h (ValueWithSigma, FixedDecimals, SignificantText).
 
 }  // namespace calib

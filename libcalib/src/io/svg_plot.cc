@@ -5,16 +5,13 @@
 #include <cstdio>
 #include <sstream>
 
+#include "calib/core/units.h"
 #include "io/report_page.h"
 
 namespace calib {
 namespace {
 
-std::string Num(double v) {
-  char buf[32];
-  std::snprintf(buf, sizeof buf, "%.4g", v);
-  return buf;
-}
+std::string Num(double v) { return Formatted("%.4g", v); }
 
 // About five round tick values over [lo, hi].
 std::vector<double> Ticks(double lo, double hi) {
@@ -134,12 +131,10 @@ std::string ColorRamp(double v, double lo, double hi) {
   const double t = hi > lo ? std::clamp((v - lo) / (hi - lo), 0.0, 1.0) : 0.5;
   // blue (33, 102, 172) -> grey (221, 221, 221) -> red (178, 24, 43)
   const double a[3] = {33, 102, 172}, m[3] = {221, 221, 221}, b[3] = {178, 24, 43};
-  char buf[8];
   int rgb[3];
   for (int k = 0; k < 3; ++k)
     rgb[k] = static_cast<int>(std::lround(t < 0.5 ? a[k] + (m[k] - a[k]) * 2 * t : m[k] + (b[k] - m[k]) * (2 * t - 1)));
-  std::snprintf(buf, sizeof buf, "#%02x%02x%02x", rgb[0], rgb[1], rgb[2]);
-  return buf;
+  return Formatted("#%02x%02x%02x", rgb[0], rgb[1], rgb[2]);
 }
 
 SvgPlot::Series HistogramSeries(const std::vector<double>& values, double lo, double hi, int bins,

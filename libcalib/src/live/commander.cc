@@ -7,6 +7,7 @@
 
 #include "calib/core/errors.h"
 #include "calib/core/kinematics.h"
+#include "calib/core/units.h"
 
 namespace calib {
 namespace {
@@ -15,12 +16,6 @@ namespace {
 constexpr double kLimitMargin = 1e-9;
 // Below this, a speed (m/s per unit progress rate) counts as zero.
 constexpr double kTiny = 1e-9;
-
-std::string Fmt(const char* format, double a, double b = 0.0, double c = 0.0) {
-  char buf[160];
-  std::snprintf(buf, sizeof(buf), format, a, b, c);
-  return buf;
-}
 
 // Trapezoidal (or triangular) profile of a progress rate: accelerate at `accel` to `peak`,
 // cruise, decelerate to rest, covering `length`.
@@ -247,7 +242,7 @@ Twist2 Commander::Impl::SteeredDirection(const TrajectorySegment& seg, const Lim
   for (double a : seg.steer) {
     if (!(std::abs(a) <= lim.max_steer)) {
       throw InputError(origin, place,
-                       Fmt("steering angle %.3f rad beyond max_steer %.3f rad", a,
+                       Formatted("steering angle %.3f rad beyond max_steer %.3f rad", a,
                            lim.max_steer));
     }
   }
@@ -530,9 +525,9 @@ const char* Dir(double sign) { return sign > 0 ? "forward" : "reverse"; }
 // --- differential
 
 void AddStraightDiff(std::vector<TrajectorySegment>* out, double speed, double distance) {
-  out->push_back(Seg(Fmt("straight, forward %.1f m at %.2f m/s", distance, speed), speed, 0.0, {},
+  out->push_back(Seg(Formatted("straight, forward %.1f m at %.2f m/s", distance, speed), speed, 0.0, {},
                      distance, 0.0));
-  out->push_back(Seg(Fmt("straight, reverse %.1f m at %.2f m/s", distance, speed), -speed, 0.0, {},
+  out->push_back(Seg(Formatted("straight, reverse %.1f m at %.2f m/s", distance, speed), -speed, 0.0, {},
                      distance, 0.0));
 }
 
@@ -542,9 +537,9 @@ void AddUmbmark(const Limits& lim, std::vector<TrajectorySegment>* out) {
   for (double sense : {1.0, -1.0}) {
     const char* name = sense > 0 ? "CCW" : "CW";
     for (int k = 1; k <= 4; ++k) {
-      out->push_back(Seg(std::string("umbmark ") + name + Fmt(" side %.0f/4: forward %.1f m", k, side),
+      out->push_back(Seg(std::string("umbmark ") + name + Formatted(" side %d/4: forward %.1f m", k, side),
                          lim.max_speed, 0.0, {}, side, 0.0));
-      out->push_back(Seg(std::string("umbmark ") + name + Fmt(" corner %.0f/4: turn %+.0f deg", k,
+      out->push_back(Seg(std::string("umbmark ") + name + Formatted(" corner %d/4: turn %+.0f deg", k,
                                                                sense * 90.0),
                          0.0, sense * turn_rate, {}, 0.0, M_PI / 2));
     }
@@ -556,7 +551,7 @@ void AddTurns(const Limits& lim, std::vector<TrajectorySegment>* out) {
     const double turns = fraction >= 1.0 ? 2.0 : 1.0;
     for (double sense : {1.0, -1.0}) {
       const double rate = sense * fraction * lim.max_omega;
-      out->push_back(Seg(Fmt("turn in place %+.0f turn(s) at %+.2f rad/s", sense * turns, rate), 0.0,
+      out->push_back(Seg(Formatted("turn in place %+.0f turn(s) at %+.2f rad/s", sense * turns, rate), 0.0,
                          rate, {}, 0.0, turns * 2.0 * M_PI));
     }
   }
@@ -567,7 +562,7 @@ void AddFigure8(const Limits& lim, std::vector<TrajectorySegment>* out, double r
   for (double first : {1.0, -1.0}) {
     for (double sense : {first, -first}) {
       out->push_back(Seg(std::string("figure-eight loop ") + (sense > 0 ? "left" : "right") +
-                             Fmt(", radius %.1f m", radius),
+                             Formatted(", radius %.1f m", radius),
                          speed, sense * speed / radius, {}, 0.0, 2.0 * M_PI));
     }
   }
@@ -580,10 +575,10 @@ void AddImuCalibration(const RobotDescription& robot, std::vector<TrajectorySegm
   const Limits& lim = robot.limits;
   const double distance = robot.imu && robot.imu->distance ? *robot.imu->distance : 3.0;
   const double still = 10.0;
-  out->push_back(Seg(Fmt("straight, forward %.2f m (measure it)", distance), lim.max_speed, 0.0, {},
+  out->push_back(Seg(Formatted("straight, forward %.2f m (measure it)", distance), lim.max_speed, 0.0, {},
                      distance, 0.0, still));
   out->push_back(Seg("turn in place +2 turns", 0.0, lim.max_omega, {}, 0.0, 4 * M_PI, still));
-  out->push_back(Seg(Fmt("straight, reverse %.2f m", distance), -lim.max_speed, 0.0, {}, distance,
+  out->push_back(Seg(Formatted("straight, reverse %.2f m", distance), -lim.max_speed, 0.0, {}, distance,
                      0.0, still));
   out->push_back(Seg("turn in place -2 turns", 0.0, -lim.max_omega, {}, 0.0, 4 * M_PI, still));
 }
@@ -633,7 +628,7 @@ std::vector<double> ArcAngles(const Limits& lim, std::vector<double> angles) {
 void AddArcThereAndBack(std::vector<TrajectorySegment>* out, const Limits& lim, double steer,
                         double distance) {
   for (double sign : {1.0, -1.0}) {
-    out->push_back(Seg(Fmt("arc, steer %+.2f rad, ", steer) + Dir(sign) + Fmt(" %.1f m", distance),
+    out->push_back(Seg(Formatted("arc, steer %+.2f rad, ", steer) + Dir(sign) + Formatted(" %.1f m", distance),
                        sign * lim.max_speed, 0.0, {steer}, distance, 0.0));
   }
 }
@@ -642,7 +637,7 @@ void AddStraightSteered(std::vector<TrajectorySegment>* out, size_t roles, doubl
                         double distance) {
   for (double sign : {1.0, -1.0}) {
     out->push_back(Seg(std::string("straight, ") + Dir(sign) +
-                           Fmt(" %.1f m at %.2f m/s", distance, speed),
+                           Formatted(" %.1f m at %.2f m/s", distance, speed),
                        sign * speed, 0.0, std::vector<double>(roles, 0.0), distance, 0.0));
   }
 }
@@ -659,7 +654,7 @@ void AddRoute(std::vector<TrajectorySegment>* out, const Limits& lim, int laps) 
     for (const char* rack : {"north-east", "south-east", "north-west", "south-west"}) {
       const double way = rack[6] == 'e' ? 1.0 : -1.0;              // forward out to the east
       const double side = rack[0] == 'n' ? 1.0 : -1.0;  // steering that reaches the rack, either way
-      const std::string run = Fmt("lap %.0f, ", lap) + "rack " + rack + ": ";
+      const std::string run = Formatted("lap %d, ", lap) + "rack " + rack + ": ";
       for (double dir : {way, -way}) {
         const std::string how = dir > 0 ? "forward " : "reverse ";
         std::vector<TrajectorySegment> legs{
@@ -707,13 +702,13 @@ void AddThreeSegment(std::vector<TrajectorySegment>* out, const Limits& lim, dou
   const std::vector<std::vector<double>> forward{{steer, 0.0}, {0.0, 0.0}, {-steer, 0.0}};
   const char* names[3] = {"first turn", "straight", "second turn"};
   for (int k = 0; k < 3; ++k) {
-    out->push_back(Seg(Fmt("three-segment run %+.2f rad: ", steer) + names[k] +
-                           Fmt(", a1 %+.2f, a2 0, forward %.1f m", forward[k][0], leg),
+    out->push_back(Seg(Formatted("three-segment run %+.2f rad: ", steer) + names[k] +
+                           Formatted(", a1 %+.2f, a2 0, forward %.1f m", forward[k][0], leg),
                        lim.max_speed, 0.0, forward[k], leg, 0.0));
   }
   for (int k = 2; k >= 0; --k) {
-    out->push_back(Seg(Fmt("three-segment run %+.2f rad back: ", steer) + names[k] +
-                           Fmt(", a1 %+.2f, a2 0, reverse %.1f m", forward[k][0], leg),
+    out->push_back(Seg(Formatted("three-segment run %+.2f rad back: ", steer) + names[k] +
+                           Formatted(", a1 %+.2f, a2 0, reverse %.1f m", forward[k][0], leg),
                        -lim.max_speed, 0.0, forward[k], leg, 0.0));
   }
 }
@@ -721,8 +716,8 @@ void AddThreeSegment(std::vector<TrajectorySegment>* out, const Limits& lim, dou
 void AddBothSteered(std::vector<TrajectorySegment>* out, const Limits& lim, const char* what,
                     double a1, double a2, double distance) {
   for (double sign : {1.0, -1.0}) {
-    out->push_back(Seg(std::string(what) + Fmt(", a1 %+.2f, a2 %+.2f, ", a1, a2) + Dir(sign) +
-                           Fmt(" %.1f m", distance),
+    out->push_back(Seg(std::string(what) + Formatted(", a1 %+.2f, a2 %+.2f, ", a1, a2) + Dir(sign) +
+                           Formatted(" %.1f m", distance),
                        sign * lim.max_speed, 0.0, {a1, a2}, distance, 0.0));
   }
 }

@@ -3,6 +3,8 @@
 #include <cmath>
 #include <cstdio>
 
+#include "calib/core/units.h"
+
 namespace calib {
 
 void CommanderSafety::Watch(const std::string& input, double timeout_s) {
@@ -26,9 +28,7 @@ std::optional<std::string> CommanderSafety::StaleReason(int64_t wall_us) const {
     if (!input.last_us) return "waiting for " + name;
     const int64_t silent = wall_us - *input.last_us;
     if (silent > input.timeout_us) {
-      char buf[96];
-      std::snprintf(buf, sizeof(buf), "no %s for %.1f s", name.c_str(), silent * 1e-6);
-      return std::string(buf);
+      return Formatted("no %s for %.1f s", name.c_str(), silent * 1e-6);
     }
   }
   return std::nullopt;

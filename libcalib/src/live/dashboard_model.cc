@@ -4,6 +4,8 @@
 #include <cmath>
 #include <vector>
 
+#include "calib/core/units.h"
+
 namespace calib {
 
 namespace {
@@ -189,6 +191,7 @@ std::vector<ParameterView> DashboardModel::Parameters() const {
     const Parameter& p = parameters_.at(name);
     ParameterView v;
     v.name = name;
+    v.unit = ParamUnit(name);
     v.value = p.value;
     v.std = p.std;
     v.nominal = p.nominal;

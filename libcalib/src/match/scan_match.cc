@@ -10,6 +10,7 @@
 #include <Eigen/Eigenvalues>
 
 #include "calib/core/errors.h"
+#include "calib/core/units.h"
 
 namespace calib {
 
@@ -631,13 +632,11 @@ void ScanMatchPipeline::CheckClocks(int64_t scan_utime, int64_t wheel_utime) {
   clocks_checked_ = true;
   const double gap_s = std::abs(static_cast<double>(scan_utime - wheel_utime)) * 1e-6;
   if (gap_s <= kClockDomainGapS) return;
-  char text[320];
-  std::snprintf(text, sizeof(text),
+  clock_problem_ = Formatted(
                 "scan and wheel stamps are %.0f s apart (scan at %.3f s, wheel state at %.3f s): two clock "
                 "domains in one group or recording (e.g. one bridge stamping with a recording's clock, another with the "
                 "host's); no scan can be matched",
                 gap_s, scan_utime * 1e-6, wheel_utime * 1e-6);
-  clock_problem_ = text;
 }
 
 void ScanMatchPipeline::Finish() {

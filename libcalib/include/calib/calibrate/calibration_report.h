@@ -15,10 +15,6 @@
 
 namespace calib {
 
-// The unit of a calibrated value by its name: "m" (radii, track, mounts), "rad" (offsets,
-// yaw), "s" (time offsets), "rad/s" (gyro bias), "1" (gyro scale).
-const char* CalibratedValueUnit(const std::string& name);
-
 // The text of summary.txt (also the top of index.html).
 std::string SolveReportSummary(const CalibrationResult& result, const std::string& log_path);
 

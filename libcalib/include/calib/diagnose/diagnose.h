@@ -170,6 +170,10 @@ const char* CandidateStatusName(CandidateStatus status);
 // time_offset, "slip_per_accel" for longitudinal_slip, ...; its unit: core/units.h ParamUnit.
 std::string EffectSizeKey(const std::string& effect_name);
 
+// The SI unit of a residual component or actuation trace by its first word: "m" (x, y,
+// translation), "rad" (yaw, heading, steer ...), "rad/s" (speed ...).
+std::string ComponentUnit(const std::string& component);
+
 // Every candidate tested, with its outcome.
 struct CandidateOutcome {
   std::string name, layer, wheel;
@@ -246,6 +250,9 @@ DiagnoseReport DiagnoseLog(const RobotDescription& robot, const std::string& log
 // REPORT.json (spec/cli.md) with the extra keys of DiagnoseReport.
 // t = 0 of the report's times: recording_start_utime, or the first interval's start.
 int64_t ReportTimeOrigin(const DiagnoseReport& report);
+// "12.3–15.0 s, 40.1–44.0 s, … (9 spans)": the first `shown` spans in seconds since `origin`
+// (summary.txt and the report page alike).
+std::string SpanTimes(const std::vector<TimeSpan>& spans, int64_t origin, std::size_t shown = 6);
 
 std::string DiagnoseReportJson(const DiagnoseReport& report);
 

@@ -68,6 +68,7 @@ struct ProcessView {
 
 struct ParameterView {
   std::string name;
+  std::string unit;  // SI, core/units.h ParamUnit: "m", "rad", "s", "rad/s", "" (dimensionless)
   double value = 0, std = -1, nominal = 0;  // std -1: not determined
   std::vector<double> values;  // one per estimate that carried it, oldest first
   std::vector<double> stds;
