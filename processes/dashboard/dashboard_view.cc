@@ -201,8 +201,8 @@ void DrawOverview(const calib::DashboardModel& model, int64_t now_us, const View
       head += calib::Formatted("  %s %.3g %s", kComponentNames[k], s.rms * kComponentScale[k], kComponentUnits[k]);
     }
     // Not the header's counts (the last solve's intervals and outliers): each interval's residual
-    // is sent once, with the outlier flag of the solve that sent it.
-    head += calib::Formatted("  (%d received, %d outliers when sent)", model.Stats(0).count, model.Stats(0).outliers);
+    // is sent once, flagged an outlier or not by the solve that sent it (fits 80 columns).
+    head += calib::Formatted("  (%d sent, %d flagged)", model.Stats(0).count, model.Stats(0).outliers);
     Put(y++, 0, head, kPlain, true);
     for (int k = 0; k < 3; ++k, ++y) {
       const double range = DrawResidualPlot(model, k, y, 18, COLS - 18, 1, state.glyphs);

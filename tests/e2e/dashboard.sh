@@ -100,7 +100,7 @@ ov = screen("overview")
 check(f"Calibration: final tricycle  intervals {n}  outliers {m}" in ov, f"final estimate, {n} intervals, {m} outliers")
 # The residual line counts each interval's residual as it was sent (its outlier flag then), not
 # the last solve's outliers: the same count in the residual view.
-rl = re.search(r"residual rms  x [0-9.]+ mm  y [0-9.]+ mm  yaw [0-9.e-]+ deg  \(%d received, ([0-9]+) outliers when sent\)" % n, ov)
+rl = re.search(r"residual rms  x [0-9.]+ mm  y [0-9.]+ mm  yaw [0-9.e-]+ deg  \(%d sent, ([0-9]+) flagged\)" % n, ov)
 check(rl, "residual rms line")
 sent_outliers = int(rl.group(1)) if rl else -1
 check(sum(1 for c in ov if 0x2800 < ord(c) <= 0x28FF) > 30, "braille residual plots")
