@@ -1,4 +1,5 @@
 #include <algorithm>
+#include <cmath>
 #include <cstdio>
 #include <filesystem>
 #include <iostream>
@@ -15,7 +16,8 @@ namespace agvcal_cli {
 
 namespace {
 const char* kUsage = R"(usage: agvcal diagnose ROBOT.yaml LOG [--sim SIM_LOG] [--out REPORT.json] [--report DIR]
-                       [--write-sim SIM.yaml] [--alpha A] [--block-s S] [--drift-window S] [--quiet]
+                       [--write-sim SIM.yaml] [--alpha A] [--block-s S] [--drift-window S] [--jobs N]
+                       [--quiet]
 
 Compares the recording with the robot's calibrated model and names the physics
 the model leaves out (spec/effects.md): where and under what motion the residual
@@ -44,7 +46,10 @@ false-alarm rate over the whole catalogue, and proven on held-out data
   --block-s S         length of the alternating fit / held-out blocks (default 10 s)
   --drift-window S    held-out dead reckoning is judged over windows of S seconds
                       (default 2, at most --block-s)
-  --quiet             no progress on stderr
+  --jobs N            threads for the candidates' independent fits (default: the machine's
+                      cores, at most 2); the report is the same for any N
+  --quiet             no progress on stderr (else a line per step; a long run's candidate
+                      lines say how many are left and about how long they take)
 Exit status: 0 done (effects found or not); 2 unusable input; 3 the recording cannot
 determine the calibration itself; 1 internal error.
 )";
@@ -52,7 +57,7 @@ determine the calibration itself; 1 internal error.
 
 int Diagnose(int argc, char** argv) {
   const auto args = agvcal_process::ParseArgs(
-      argc, argv, 2, {"--sim", "--out", "--report", "--write-sim", "--alpha", "--block-s", "--drift-window"}, {"--quiet"});
+      argc, argv, 2, {"--sim", "--out", "--report", "--write-sim", "--alpha", "--block-s", "--drift-window", "--jobs"}, {"--quiet"});
   if (const auto status = agvcal_process::CheckUsage(args, kUsage, 2)) return *status;
   const calib::RobotDescription robot = calib::LoadRobotFile(args.positional[0]);
   const std::string log_path = args.positional[1];
@@ -63,6 +68,12 @@ int Diagnose(int argc, char** argv) {
     throw calib::InputError("command line", "--alpha", "expected a number in (0, 1)");
   if (!(options.block_s >= 1.0))
     throw calib::InputError("command line", "--block-s", "expected at least 1 s");
+  if (args.Has("--jobs")) {
+    const double jobs = args.GetDouble("--jobs", 0);
+    if (!(jobs >= 1 && jobs <= 64 && jobs == std::floor(jobs)))
+      throw calib::InputError("command line", "--jobs", "expected a whole number from 1 to 64");
+    options.jobs = static_cast<int>(jobs);
+  }
   options.drift_window_s = args.GetDouble("--drift-window", std::min(options.drift_window_s, options.block_s));
   if (!(options.drift_window_s > 0 && options.drift_window_s <= options.block_s))
     throw calib::InputError("command line", "--drift-window", "expected a length in (0, --block-s]");

@@ -17,6 +17,7 @@
 #include "calib/calibrate/recording_input.h"
 #include "calib/core/errors.h"
 #include "calib/core/laser_scan.h"
+#include "calib/core/progress.h"
 #include "calib/io/log_summary.h"
 #include "calib/core/statistics.h"
 #include "calib/core/units.h"
@@ -1038,21 +1039,29 @@ DiagnoseReport Diagnoser::Run() {
   // Where `agvcal solve` refuses (a straight-only recording), so does the diagnosis: a model
   // with parameters held at their nominal values would blame their error on missing physics,
   // or call the recording explained (spec/cli.md: exit 3, naming what and the motion to add).
+  // The plain calibration and the one with the time offset are independent: side by side.
   CalibrationOptions co;
-  const CalibrationResult cal = [&] {
+  CalibrationOptions co_offset = co;
+  co_offset.check_observability = false;
+  co_offset.estimate_time_offset = true;
+  co_offset.max_time_offset_s = kMaxOffsetS;
+  std::optional<CalibrationResult> cal_plain, cal_offset;
+  ParallelFor(2, WorkerThreads(options_.jobs), [&](std::size_t k) {
+    if (k == 1) {
+      cal_offset = Calibrate(robot_, data_.wheels, data_.motions, data_.source, co_offset, origin_);
+      return;
+    }
     try {
-      return Calibrate(robot_, data_.wheels, data_.motions, data_.source, co, origin_);
+      cal_plain = Calibrate(robot_, data_.wheels, data_.motions, data_.source, co, origin_);
     } catch (const UnobservableError& e) {
       const std::string what = e.what();
       throw UnobservableError(what.substr(0, what.size() - std::min(what.size(), e.remedy().size() + 2)) +
                                   ", so the calibration the diagnosis compares with cannot be made",
                               e.remedy());
     }
-  }();
-  co.check_observability = false;
-  co.estimate_time_offset = true;
-  co.max_time_offset_s = kMaxOffsetS;
-  offset_start_ = Calibrate(robot_, data_.wheels, data_.motions, data_.source, co, origin_).time_offset->value;
+  });
+  const CalibrationResult& cal = *cal_plain;
+  offset_start_ = cal_offset->time_offset->value;
   Model start;
   for (int i = 0; i < num_params_; ++i) {
     start.params[i] = cal.params.at(names[i]).value;
@@ -1212,9 +1221,12 @@ double Diagnoser::BestOnGrid(const Model& m, int beta, const std::vector<double>
 }
 
 std::vector<Fit> Diagnoser::FitSingles(const std::vector<Candidate>& cands, const Fit& f0) const {
-  std::vector<Fit> single;
-  for (const Candidate& c : cands) {
-    Progress("testing " + c.name + (c.wheel.empty() ? "" : " (" + c.wheel + ")"));
+  // Independent fits on the worker threads, each into its own slot; the progress lines come
+  // from this thread in the catalogue's order, each before its candidate's result is awaited.
+  std::vector<Fit> single(cands.size());
+  const ProgressEstimate estimate(static_cast<int>(cands.size()));
+  auto fit = [&](std::size_t j) {
+    const Candidate& c = cands[j];
     Model from = f0.m;
     // The time offset's cost has local minima a sample period apart (encoder ticks): start
     // it where the calibration's own joint estimate put it.
@@ -1222,15 +1234,21 @@ std::vector<Fit> Diagnoser::FitSingles(const std::vector<Candidate>& cands, cons
     // A lag's cost is far from quadratic in tau (a 90 ms steering lag fitted from zero stopped
     // at 48 ms, issue 16): global before local, the best of a grid over its range.
     if (c.beta[0] == kLag) from.beta[kLag] = BestOnGrid(from, kLag, {0.0, 0.01, 0.02, 0.04, 0.07, 0.1, 0.15, 0.2, 0.3, 0.4});
-    single.push_back(FitModel(from, c.beta, c.beta));
-  }
+    single[j] = FitModel(from, c.beta, c.beta);
+  };
+  auto report = [&](std::size_t j) {
+    const Candidate& c = cands[j];
+    Progress("testing " + c.name + (c.wheel.empty() ? "" : " (" + c.wheel + ")") + " (" +
+             estimate.Label(static_cast<int>(j)) + ")");
+  };
+  ParallelFor(cands.size(), WorkerThreads(options_.jobs), fit, report);
   return single;
 }
 
 std::vector<SingleFit> Diagnoser::SingleFigures(const std::vector<Candidate>& cands, const std::vector<Fit>& single,
                                                 const Fit& f0, double log_n) const {
   std::vector<SingleFit> out(cands.size());
-  for (std::size_t j = 0; j < cands.size(); ++j) {
+  ParallelFor(cands.size(), WorkerThreads(options_.jobs), [&](std::size_t j) {  // each into its own slot
     const Candidate& c = cands[j];
     const Fit& f = single[j];
     SingleFit& s = out[j];
@@ -1246,7 +1264,7 @@ std::vector<SingleFit> Diagnoser::SingleFigures(const std::vector<Candidate>& ca
     const Localized where = Localize(c, f.m, f0.m);
     s.heldout_gain = HeldoutGain(f0, f), s.span_gain = where.span_gain();
     s.heldout_confirmed = ScoreConfirmed(f0, f) || DriftConfirmed(f0, f, where.comp == 2);
-  }
+  });
   return out;
 }
 
@@ -1399,19 +1417,26 @@ std::vector<PairFit> Diagnoser::RecordingFits::FitPairs(const std::vector<Confus
       if (cands_[j].name == pair.b) ib = int(j);
     }
     if (ia < 0 || ib < 0) continue;
-    const int ba = cands_[ia].beta[0], bb = cands_[ib].beta[0];
-    Model startm = f0_.m;
-    startm.beta[ba] = single_[ia].m.beta[ba];
-    startm.beta[bb] = single_[ib].m.beta[bb];
-    joints_.push_back(d_.FitModel(startm, {ba, bb}, {ba, bb}));
-    const Fit& joint = joints_.back();
     PairFit pf;
     pf.pair = &pair, pf.a = ia, pf.b = ib;
+    pairs_.push_back(pf);
+  }
+  // The joint fits are independent: on the worker threads, each into its own slot.
+  joints_.assign(pairs_.size(), Fit());
+  ParallelFor(pairs_.size(), WorkerThreads(d_.options_.jobs), [&](std::size_t k) {
+    const int ba = cands_[pairs_[k].a].beta[0], bb = cands_[pairs_[k].b].beta[0];
+    Model startm = f0_.m;
+    startm.beta[ba] = single_[pairs_[k].a].m.beta[ba];
+    startm.beta[bb] = single_[pairs_[k].b].m.beta[bb];
+    joints_[k] = d_.FitModel(startm, {ba, bb}, {ba, bb});
+  });
+  for (std::size_t k = 0; k < pairs_.size(); ++k) {
+    const Fit& joint = joints_[k];
+    PairFit& pf = pairs_[k];
     pf.p = joint.p, pf.wald = joint.wald;
     pf.delta_bic = DeltaBic(joint.chi2_fit, f0_.chi2_fit, 2, log_n_);
     pf.var_a = joint.cov(0, 0), pf.var_b = joint.cov(1, 1);
     pf.correlation = Correlation(joint.cov, 0, 1);
-    pairs_.push_back(pf);
   }
   return pairs_;
 }

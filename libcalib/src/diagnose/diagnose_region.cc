@@ -48,13 +48,19 @@ struct Grid {
   }
 };
 
+// Cells a side at most: every box of whole cells is tried, their number grows with the fourth
+// power of the side, each over all intervals (a 10-minute differential recording's route of
+// tens of metres in 1 m cells took minutes), so a long route gets coarser cells.
+constexpr double kMaxCellsPerSide = 16;
+
 Grid MakeGrid(const std::vector<RegionInterval>& intervals, double cell_m) {
   Grid g;
-  g.cell = cell_m;
   double x1 = -INFINITY, y1 = -INFINITY;
   g.x0 = g.y0 = INFINITY;
   for (const RegionInterval& it : intervals)
     g.x0 = std::min(g.x0, it.x), g.y0 = std::min(g.y0, it.y), x1 = std::max(x1, it.x), y1 = std::max(y1, it.y);
+  cell_m = std::max(cell_m, std::max(x1 - g.x0, y1 - g.y0) / kMaxCellsPerSide);
+  g.cell = cell_m;
   g.nx = std::max(1, int(std::ceil((x1 - g.x0) / cell_m + 1e-9)));
   g.ny = std::max(1, int(std::ceil((y1 - g.y0) / cell_m + 1e-9)));
   double q_max = 0;

@@ -46,6 +46,9 @@ struct DiagnoseOptions {
   double block_s = 10.0;     // length of the alternating fit / held-out blocks
   double drift_window_s = 2.0;  // held-out drift windows (FoundEffect::heldout_drift_*)
   int hac_lags = 4;          // Newey-West lags (neighbouring intervals share a scan)
+  // Threads for the independent fits (each candidate's, each look-alike pair's); 0: the
+  // hardware's, at most 2 (core/progress.h WorkerThreads). The report is the same for any number.
+  int jobs = 0;
   std::function<void(const std::string&)> progress;
 };
 
