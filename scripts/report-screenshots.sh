@@ -15,7 +15,7 @@ python3 "$SRC/tests/tools/browser_check.py" --screenshots "$WORK/png" \
 mkdir -p "$SRC/docs/img"
 for name in diagnose solve ground recal; do
   size=$(stat -c %s "$WORK/png/$name.png")
-  if [ "$size" -gt 204800 ]; then echo "report-screenshots: $name.png is $((size / 1024)) kB (over 200 kB)" >&2; exit 1; fi
+  if [ "$size" -gt 262144 ]; then echo "report-screenshots: $name.png is $((size / 1024)) kB (over 256 kB)" >&2; exit 1; fi
   cp "$WORK/png/$name.png" "$SRC/docs/img/report-$name.png"
   echo "docs/img/report-$name.png ($((size / 1024)) kB)"
 done
