@@ -725,6 +725,9 @@ TEST(GroundTest, MalformedPcdNamesTheFileThePlaceAndTheProblem) {
   no_z.replace(no_z.find("FIELDS x y z intensity"), 22, "FIELDS x y q intensity");
   std::string bad_size = header;
   bad_size.replace(bad_size.find("SIZE 4 4 4 4"), 12, "SIZE 4 4 3 4");
+  // Found by the fuzzer: a huge COUNT sized a row of 12 GB before reading any data.
+  std::string huge_count = header;
+  huge_count.replace(huge_count.find("COUNT 1 1 1 1"), 13, "COUNT 1 1555555555 1 1");
   const std::vector<Case> cases{
       {header + "DATA ascii\n1 2 3 7\n4 5 x 7\n7 8 9 7\n", "line 13", "expected 4 numbers per point"},
       {header + "DATA ascii\n1 2 3 7\n4 5 6 7 8\n7 8 9 7\n", "line 13", "more than 4 values"},
@@ -733,6 +736,7 @@ TEST(GroundTest, MalformedPcdNamesTheFileThePlaceAndTheProblem) {
       {no_z + "DATA ascii\n", "line 11", "FIELDS lacks x, y or z"},
       {bad_size + "DATA ascii\n", "line 4", "SIZE of z must be 1, 2, 4 or 8"},
       {without("TYPE F F F F") + "DATA ascii\n", "line 10", "header lacks TYPE"},
+      {huge_count + "DATA ascii\n1 2 3 7\n", "line 11", "more than the whole file"},
       {header + "DATA lzma\n", "line 11", "DATA must be ascii, binary or binary_compressed"},
       {"hello world\n", "line 1", "unknown header line 'hello'"},
       {header + "DATA binary\n" + std::string(20, '\0'), "byte", "truncated: 3 points of 16 bytes need 48"},

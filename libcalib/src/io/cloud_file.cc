@@ -220,6 +220,11 @@ PcdHeader ReadPcdHeader(const std::string& path, const std::vector<char>& bytes)
     if (fields[i].name == "y") h.iy = static_cast<int>(i);
     if (fields[i].name == "z") h.iz = static_cast<int>(i);
   }
+  // A point's values take at least a byte each, in binary or ASCII: a COUNT that makes one point
+  // larger than the whole file is corrupt (and must not size an allocation).
+  if (h.record > bytes.size())
+    FailLine(path, data_line, "SIZE x COUNT gives a point of " + std::to_string(h.record) +
+                                  " bytes, more than the whole file (" + std::to_string(bytes.size()) + " bytes)");
   if (h.ix < 0 || h.iy < 0 || h.iz < 0) FailLine(path, data_line, "FIELDS lacks x, y or z");
   for (int i : {h.ix, h.iy, h.iz})
     if (fields[i].type != 'F' || (fields[i].size != 4 && fields[i].size != 8))
