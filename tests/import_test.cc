@@ -632,6 +632,11 @@ TEST(ImportTest, DispatchChecksFormatAndRobot) {
   const std::string motors = TempFile("robot9_motors.txt", "M 1 0 0 0 0 0 0 0 0 0 0 0 0\n");
   ExpectInputError([&] { LegoScanPathFor(motors); }, motors, -1,
                    "tried import_test_robot9_scan.txt and import_test_robot9_scan.txt.gz");
+  // Found by the fuzzer: a time in ms whose microseconds overflow int64.
+  const std::string far = TempFile("robot8_motors.txt", "M 26666666666666604 0 0 0 0 0 0 0 0 0 0 0 0\n");
+  const std::string far_scan = TempFile("robot8_scan.txt", "");
+  const RobotDescription lego = DatasetRobot("lego_robot.yaml");
+  ExpectInputError([&] { ImportLego(far, far_scan, lego, &sink); }, far, 1, "time out of range");
   for (const std::string& format : ImportFormats())
     EXPECT_EQ(ImportNeedsRobot(format), format != "pose-csv");
 }

@@ -1106,6 +1106,10 @@ TEST(SimulatorTest, ConfigErrorsNameLineAndProblem) {
   });
   EXPECT_NE(beams.find("whole number"), std::string::npos) << beams;
 
+  // Found by the fuzzer: a seed beyond uint64 was converted with undefined behaviour.
+  const std::string seed = ErrorOf([] { Parse("robot: ../robots/diff_robot.yaml\nseed: 2.2e46\n"); });
+  EXPECT_NE(seed.find("a seed is a whole number from 0 to 2^53"), std::string::npos) << seed;
+
   const std::string rate = ErrorOf([] {
     Parse("robot: ../robots/diff_robot.yaml\nsensors: {imu: {rate: 2000}}\n");
   });

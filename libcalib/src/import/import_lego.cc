@@ -70,7 +70,7 @@ ImportSummary ImportLego(const std::string& motors_path, const std::string& scan
     const std::vector<std::string> f = SplitFields(line);
     if (f.empty()) continue;
     ExpectTag(motors, f, "M", 14, "M t_ms, then pos tacho accel speed of 3 motors");
-    const int64_t utime = ParseInteger(motors, f[1], FieldName(1, "t_ms")) * 1000;
+    const int64_t utime = ParseMillisAsMicros(motors, f[1], FieldName(1, "t_ms"));
     const int64_t left = ParseInteger(motors, f[2], FieldName(2, "left pos"));
     const int64_t right = ParseInteger(motors, f[6], FieldName(6, "right pos"));
     for (std::size_t k = 3; k < f.size(); ++k)
@@ -87,7 +87,7 @@ ImportSummary ImportLego(const std::string& motors_path, const std::string& scan
     const std::vector<std::string> f = SplitFields(line);
     if (f.empty()) continue;
     ExpectTag(scan_file, f, "S", 3 + kBeams, "S t_ms 660 d0..d659");
-    const int64_t utime = ParseInteger(scan_file, f[1], FieldName(1, "t_ms")) * 1000;
+    const int64_t utime = ParseMillisAsMicros(scan_file, f[1], FieldName(1, "t_ms"));
     if (ParseInteger(scan_file, f[2], FieldName(2, "beam count")) != kBeams)
       scan_file.Fail(FieldName(2, "beam count") + ": expected 660, got " + f[2]);
     std::vector<float> ranges(kBeams);
@@ -123,7 +123,7 @@ std::vector<ReferencePosition> ReadLegoReference(const std::string& path) {
     if (f.empty()) continue;
     ExpectTag(reader, f, "P", 4, "P t_ms x_mm y_mm");
     ReferencePosition p;
-    p.utime = ParseInteger(reader, f[1], FieldName(1, "t_ms")) * 1000;
+    p.utime = ParseMillisAsMicros(reader, f[1], FieldName(1, "t_ms"));
     p.x = ParseNumber(reader, f[2], FieldName(2, "x_mm")) * 1e-3;
     p.y = ParseNumber(reader, f[3], FieldName(3, "y_mm")) * 1e-3;
     if (order.Accept(reader, p.utime)) out.push_back(p);

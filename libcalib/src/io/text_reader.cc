@@ -6,6 +6,7 @@
 #include <cctype>
 #include <cerrno>
 #include <cmath>
+#include <cstdint>
 #include <cstdio>
 #include <cstdlib>
 #include <cstring>
@@ -125,6 +126,13 @@ int64_t ParseInteger(const TextReader& reader, const std::string& field, const s
   if (field.empty() || end != field.c_str() + field.size() || errno == ERANGE)
     reader.Fail(what + ": expected an integer, got '" + field + "'");
   return value;
+}
+
+int64_t ParseMillisAsMicros(const TextReader& reader, const std::string& field, const std::string& what) {
+  const int64_t millis = ParseInteger(reader, field, what);
+  if (millis > INT64_MAX / 1000 || millis < INT64_MIN / 1000)
+    reader.Fail(what + ": time out of range, got '" + field + "'");
+  return millis * 1000;
 }
 
 int64_t ParseSecondsAsMicros(const TextReader& reader, const std::string& field,

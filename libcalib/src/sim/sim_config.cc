@@ -303,7 +303,9 @@ SimConfig ParseSimConfig(const std::string& yaml_text, const std::string& origin
 
   if (const auto f = top.Find("seed")) {
     const double seed = ReadNumber(r, *f);
-    if (seed < 0 || seed != std::floor(seed)) r.Fail(*f, "a seed is a whole number >= 0");
+    // Up to 2^53: every whole number a YAML double holds exactly (and no overflow of uint64).
+    if (seed < 0 || seed != std::floor(seed) || seed > 9007199254740992.0)
+      r.Fail(*f, "a seed is a whole number from 0 to 2^53");
     cfg.seed = static_cast<uint64_t>(seed);
   }
   if (const auto f = top.Find("world")) {

@@ -50,6 +50,10 @@ std::vector<std::string> SplitFields(const std::string& line, char separator = '
 double ParseNumber(const TextReader& reader, const std::string& field, const std::string& what);
 int64_t ParseInteger(const TextReader& reader, const std::string& field, const std::string& what);
 
+// A whole number of milliseconds as microseconds; a value whose microseconds do not fit
+// in int64 is refused like any bad field.
+int64_t ParseMillisAsMicros(const TextReader& reader, const std::string& field, const std::string& what);
+
 // A time in seconds ("1134864629.895182", "0.05", "1e3") as microseconds, rounded to the
 // nearest; exact for plain decimals, whatever their magnitude.
 int64_t ParseSecondsAsMicros(const TextReader& reader, const std::string& field,
