@@ -81,7 +81,7 @@ double Sse(const Layer& L, const std::vector<std::array<double, 2>>& pred, const
 // 39.7 Hz on 4.2 ms: 0.3 % the longer). Their RMS (1.2 ms; 0.2 ms) says little of the tick,
 // their spread is the tick. Within a tick when the setpoint changes is not known: a ramp
 // toward each command starts from where the previous one stood at the last tick, half a tick
-// behind the continuous ramp, and read as a drive lag of a quarter tick (0.4 to 2.3 ms on ten
+// behind the continuous ramp, and read as a drive lag of a quarter tick (0.4 to 2.3 ms on eleven
 // simulated recordings without one, ticks of 1.7 to 8.5 ms).
 double CommandPeriod(const std::vector<DriveCommand>& commands, double* jitter = nullptr) {
   std::vector<int64_t> gaps;
