@@ -118,6 +118,8 @@ using namespace diag;
 constexpr double kOutlierChi2 = 50.0;  // 3 dof, p ~ 1e-10 at the robust scale: failed matches only
 constexpr double kHeldoutZ = 1.645;  // one-sided 5 % on the held-out blocks
 constexpr double kDriftP = 0.01;     // one-sided level of the held-out drift confirmation
+constexpr double kHeldoutP = 0.05;   // one-sided level of a region effect's held-out improvement
+constexpr double kMinRegionGain = 0.05;  // and its practical floor (as the actuation layer's kMinGain)
 
 struct Model {
   double params[5] = {0, 0, 0, 0, 0};
@@ -399,6 +401,11 @@ Fit Diagnoser::FitModel(const Model& start, const std::vector<int>& free,
       // A scan period is not negative: unbounded, MIT CSAIL's single fit went to -0.19 s and the
       // joint fit traded the period against the time offset (241 ms with 0.17 s, 147 ms alone).
       problem.SetParameterLowerBound(fit.m.beta, kDistortion, 0.0);
+      // Nor is a play's width: a negative "backlash" (the wheel ahead of its encoder in the
+      // direction it last moved) is no play but the interval's steering read at its ends while
+      // it turns slowly, as under a steering rate limit; on three dual-steer recordings with a
+      // rate limit and no backlash it came out -0.4 to -0.75 mrad at p < 1e-7 and was named.
+      problem.SetParameterLowerBound(fit.m.beta, kBacklash, 0.0);
     }
     ceres::Solver::Options so;
     so.linear_solver_type = ceres::DENSE_QR;
@@ -967,13 +974,39 @@ void Diagnoser::TestRegions(const std::vector<Candidate>& cands, const Fit& curr
     // and lets the robot skid outwards in a turn (gain > 0).
     const RegionTest t = BestRegion(in, options_.hac_lags, 1.0, +1);
     const double share = levels.alpha / std::max(1, levels.candidates);
-    if (!(t.p_adjusted < share) || !t.heldout_confirmed) {
+    // The held-out residual inside the region, in the effect's component, without and with it.
+    const int comp = o.name == "lateral_slip" ? 1 : 0;
+    std::vector<TimeSpan> spans;
+    std::vector<double> rb, ra, abs_b, abs_a;
+    Model with = current.m;
+    with.beta[b] += t.beta;
+    for (std::size_t j = 0; j < t.inside.size(); ++j) {
+      if (!t.inside[j] || in[j].g.squaredNorm() == 0) continue;
+      const Interval& it = intervals_[index[j]];
+      spans.push_back({it.motion->utime_start, it.motion->utime_end});
+      if (!it.heldout) continue;
+      rb.push_back(ErrorOf(it, current.m)[comp]);
+      ra.push_back(ErrorOf(it, with)[comp]);
+      abs_b.push_back(std::abs(rb.back())), abs_a.push_back(std::abs(ra.back()));
+    }
+    // The region's effect at the size the fit blocks give must make the held-out intervals
+    // inside it fit better: their errors lower (paired one-sided test, 5 %) and by at least the
+    // practical floor of a held-out gain (kMinRegionGain), as a wet patch does (76 % on the
+    // suite's). Its held-out estimate can be significant without that: the route crosses the
+    // same places in the fit and the held-out blocks, and what the model of a large effect found
+    // elsewhere leaves there (a backlash's, a time offset's) repeats in both; all 9 regions named
+    // in the randomized suite were of that kind (no floor effect there was confined to a
+    // region), and none lowered the held-out residual inside its box by more than 7 %; one by
+    // 0.5 % passed the test alone (many intervals, each a little lower).
+    const bool lowers = TestImprovement(abs_b, abs_a, kHeldoutP, kMinRegionGain).significant;
+    if (!(t.p_adjusted < share) || !t.heldout_confirmed || !lowers) {
       std::ostringstream note;
       note.precision(3);
       note << "not confined to a region either: the best of " << t.boxes << " boxes of the route (x " << t.box[0]
            << " .. " << t.box[2] << ", y " << t.box[1] << " .. " << t.box[3] << " m) gives "
            << EstimateText(t.beta, t.std, ParamUnit(c->keys[0])) << ", " << PValueText(t.p_adjusted)
-           << " over the boxes, held-out z = " << t.heldout_z;
+           << " over the boxes, held-out z = " << t.heldout_z << ", held-out RMS there " << Rms(rb) << " without, "
+           << Rms(ra) << " with it";
       o.note += (o.note.empty() ? "" : "; ") + note.str();
       continue;
     }
@@ -983,20 +1016,7 @@ void Diagnoser::TestRegions(const std::vector<Candidate>& cands, const Fit& curr
     fe.params[c->keys[0]] = {t.beta, t.std};
     fe.wald = t.wald, fe.p_value = t.p, fe.p_adjusted = std::min(1.0, t.p_adjusted / share * levels.alpha);
     fe.region = t.box;
-    fe.component = o.name == "lateral_slip" ? "y" : "x";
-    const int comp = fe.component == "y" ? 1 : 0;
-    std::vector<TimeSpan> spans;
-    std::vector<double> rb, ra, all_b, all_a;
-    Model with = current.m;
-    with.beta[b] += t.beta;
-    for (std::size_t j = 0; j < in.size(); ++j) {
-      if (!t.inside[j] || in[j].g.squaredNorm() == 0) continue;
-      const Interval& it = intervals_[index[j]];
-      spans.push_back({it.motion->utime_start, it.motion->utime_end});
-      if (!it.heldout) continue;
-      rb.push_back(ErrorOf(it, current.m)[comp]);
-      ra.push_back(ErrorOf(it, with)[comp]);
-    }
+    fe.component = comp == 1 ? "y" : "x";
     fe.where = MergeSpans(spans, 1000000);
     fe.heldout_rms_before = fe.heldout_rms_all_before = Rms(rb);
     fe.heldout_rms_after = fe.heldout_rms_all_after = Rms(ra);

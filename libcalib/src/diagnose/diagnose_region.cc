@@ -5,7 +5,8 @@
 // box, the calibration's parameters projected out, an autocorrelation-robust Wald statistic on
 // the fit blocks. The box with the largest statistic is chosen; its p-value is multiplied by the
 // number of boxes tried (Bonferroni), and the effect must then show with the same sign on the
-// held-out intervals inside the box (one-sided score test at 5 %).
+// held-out intervals inside the box (one-sided score test at 5 %). The caller (Diagnoser::TestRegions)
+// also requires the effect at its fitted size to lower the held-out errors inside the region.
 
 #include <algorithm>
 #include <cmath>
