@@ -208,9 +208,11 @@ class IntervalModel : public IntervalCost<IntervalModel> {
 // The Ceres cost of one interval (IntervalModel) with derivatives over the drive parameters,
 // the mount and the effect terms `free` only: the other effect terms enter as constants and
 // their Jacobian columns are zero. The Jets are sized to the free terms (issue 19: Jets over
-// all 5 + 3 + kNumBeta parameters were 70 % of a dual-steer diagnosis where one term is free).
+// all 5 + 3 + kNumBeta parameters were 60 % of a dual-steer diagnosis where one term is free).
 // Each Jet component is computed by the same operations whatever the others are, so residuals
-// and the Jacobian's columns equal those of AutoDiffCostFunction over every term to the bit.
+// and the Jacobian's columns equal those of AutoDiffCostFunction over every term to the bit
+// (tests/diagnose_jets_test.cc; it would catch a build whose vector and scalar lanes round
+// differently, e.g. with fused multiply-adds in one and not the other).
 // Without Jacobians the model runs on doubles, as AutoDiffCostFunction does.
 class IntervalFunction : public ceres::SizedCostFunction<3, 5, 3, kNumBeta> {
  public:
