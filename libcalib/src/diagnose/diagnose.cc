@@ -2,6 +2,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <deque>
 #include <map>
 #include <memory>
 #include <numeric>
@@ -130,7 +131,6 @@ struct Model {
 struct Interval {
   const SensorMotion* motion = nullptr;
   std::unique_ptr<IntervalModel> model;
-  std::unique_ptr<ceres::CostFunction> function;
   int block = 0;  // index of its fit (even) or held-out (odd) block
   bool heldout = false, outlier = false;
   Eigen::Vector3d sigma = Eigen::Vector3d::Ones();  // unscaled measurement std per component
@@ -181,15 +181,18 @@ struct Jacobians {
   Eigen::Matrix<double, 3, kNumBeta, Eigen::RowMajor> beta;
 };
 
-// An interval's whitened residual `r` under `m`, and its Jacobians when `jac` is given.
-void Residual(const Interval& it, const Model& m, double r[3], Jacobians* jac = nullptr) {
+// An interval's whitened residual `r` under `m`, and its Jacobians when `jac` is given: over
+// the drive parameters, the mount and the effect terms `betas` (the other columns zero).
+void Residual(const Interval& it, const Model& m, double r[3], Jacobians* jac = nullptr,
+              const std::vector<int>& betas = {}) {
+  const IntervalFunction function(it.model.get(), &betas);
   const double* blocks[3] = {m.params, m.mount, m.beta};
   if (jac == nullptr) {
-    it.function->Evaluate(blocks, r, nullptr);
+    function.Evaluate(blocks, r, nullptr);
     return;
   }
   double* jacobians[3] = {jac->params.data(), jac->mount.data(), jac->beta.data()};
-  it.function->Evaluate(blocks, r, jacobians);
+  function.Evaluate(blocks, r, jacobians);
 }
 
 double Chi2Of(const Interval& it, const Model& m) {
@@ -364,8 +367,6 @@ void Diagnoser::BuildIntervals() {
         &track_, first, last, m->utime_start, (m->utime_end - m->utime_start) * 1e-6,
         Eigen::Vector3d(m->delta.x, m->delta.y, m->delta.theta), SqrtInformation(m->covariance),
         SpreadDerivative(m, spread), lead_s, deskew_over_lead(m->utime_start), deskew_over_lead(m->utime_end));
-    it.function = std::make_unique<ceres::AutoDiffCostFunction<IntervalModel, 3, 5, 3, kNumBeta>>(
-        it.model.get(), ceres::DO_NOT_TAKE_OWNERSHIP);
     intervals_.push_back(std::move(it));
   }
 }
@@ -382,9 +383,11 @@ Fit Diagnoser::FitModel(const Model& start, const std::vector<int>& free,
     ceres::Problem::Options po;
     po.cost_function_ownership = ceres::DO_NOT_TAKE_OWNERSHIP;
     ceres::Problem problem(po);
+    std::deque<IntervalFunction> functions;  // derivatives over the free effect terms only
     for (const Interval& it : intervals_) {
       if (it.heldout || it.outlier) continue;
-      problem.AddResidualBlock(it.function.get(), nullptr, fit.m.params, fit.m.mount, fit.m.beta);
+      functions.emplace_back(it.model.get(), &fit.free);
+      problem.AddResidualBlock(&functions.back(), nullptr, fit.m.params, fit.m.mount, fit.m.beta);
     }
     if (!constant_params_.empty()) problem.SetManifold(fit.m.params, new ceres::SubsetManifold(5, constant_params_));
     std::vector<int> fixed;
@@ -437,7 +440,7 @@ Fit Diagnoser::FitModel(const Model& start, const std::vector<int>& free,
       continue;
     }
     Jacobians jac;
-    Residual(it, fit.m, r, &jac);
+    Residual(it, fit.m, r, &jac, free);
     Eigen::MatrixXd J(3, dim);
     for (int c = 0; c < np; ++c) J.col(c) = jac.params.col(active[c]);
     J.block(0, np, 3, 3) = jac.mount;
@@ -960,7 +963,7 @@ void Diagnoser::TestRegions(const std::vector<Candidate>& cands, const Fit& curr
       const Interval& it = intervals_[k];
       double r[3];
       Jacobians jac;
-      Residual(it, current.m, r, &jac);
+      Residual(it, current.m, r, &jac, {b});
       RegionInterval ri;
       ri.x = report->intervals[k].motion.x, ri.y = report->intervals[k].motion.y, ri.heldout = it.heldout;
       ri.r = Eigen::Vector3d(r[0], r[1], r[2]) / s;
@@ -1294,17 +1297,18 @@ std::vector<SingleFit> Diagnoser::SingleFigures(const std::vector<Candidate>& ca
 // is the model's (for the time offset: from the smoothed speeds), so encoder noise in
 // the residual cannot correlate with it.
 bool Diagnoser::ScoreConfirmed(const Fit& before, const Fit& after) const {
+  std::vector<int> added;  // the effect terms free after, not before
+  for (int b : after.free)
+    if (std::find(before.free.begin(), before.free.end(), b) == before.free.end()) added.push_back(b);
   std::vector<double> terms, noise;
   for (const Interval& it : intervals_) {
     if (!it.heldout || it.outlier) continue;
     double r[3], ra[3];
     Residual(it, before.m, r);
     Jacobians jac;
-    Residual(it, after.m, ra, &jac);
+    Residual(it, after.m, ra, &jac, added);
     Eigen::Vector3d contribution = Eigen::Vector3d::Zero();  // change of the residual the effect makes
-    for (int b : after.free)
-      if (std::find(before.free.begin(), before.free.end(), b) == before.free.end())
-        contribution -= jac.beta.col(b) * after.m.beta[b];
+    for (int b : added) contribution -= jac.beta.col(b) * after.m.beta[b];
     terms.push_back(contribution.dot(Eigen::Vector3d(r[0], r[1], r[2])) / s2_);
     noise.push_back(contribution.dot(Eigen::Vector3d(ra[0], ra[1], ra[2])) / s2_);
   }

@@ -11,6 +11,8 @@
 #include <vector>
 
 #include <Eigen/Core>
+#include <ceres/jet.h>
+#include <ceres/sized_cost_function.h>
 
 #include "calib/calibrate/calibration.h"
 #include "calib/calibrate/interval_model.h"
@@ -201,6 +203,61 @@ class IntervalModel : public IntervalCost<IntervalModel> {
   Eigen::Vector3d distortion_;  // d(measured)/d(scan period), per second of period
   double lead_;                 // s: the de-skewed scans' mean beam time after the stamp
   Pose2 deskew_head_, deskew_tail_;  // de-skew odometry over the lead after each stamp
+};
+
+// The Ceres cost of one interval (IntervalModel) with derivatives over the drive parameters,
+// the mount and the effect terms `free` only: the other effect terms enter as constants and
+// their Jacobian columns are zero. The Jets are sized to the free terms (issue 19: Jets over
+// all 5 + 3 + kNumBeta parameters were 60 % of a dual-steer diagnosis where one term is free).
+// Each Jet component is computed by the same operations whatever the others are, so residuals
+// and the Jacobian's columns equal those of AutoDiffCostFunction over every term to the bit
+// (tests/diagnose_jets_test.cc; it would catch a build whose vector and scalar lanes round
+// differently, e.g. with fused multiply-adds in one and not the other).
+// Without Jacobians the model runs on doubles, as AutoDiffCostFunction does.
+class IntervalFunction : public ceres::SizedCostFunction<3, 5, 3, kNumBeta> {
+ public:
+  // `free` (effect terms, Beta) must outlive the function.
+  IntervalFunction(const IntervalModel* model, const std::vector<int>* free) : model_(model), free_(free) {}
+
+  bool Evaluate(double const* const* parameters, double* residuals, double** jacobians) const override {
+    if (jacobians == nullptr) return (*model_)(parameters[0], parameters[1], parameters[2], residuals);
+    // Jets padded to a few sizes (unused components stay 0); 10 rather than 9 for one free term:
+    // an even size vectorises whole (about 10 % faster on a dual-steer interval).
+    const std::size_t n = free_->size();
+    if (n == 0) return WithJets<8>(parameters, residuals, jacobians);
+    if (n <= 2) return WithJets<10>(parameters, residuals, jacobians);
+    if (n <= 4) return WithJets<12>(parameters, residuals, jacobians);
+    if (n <= 8) return WithJets<16>(parameters, residuals, jacobians);
+    return WithJets<8 + kNumBeta>(parameters, residuals, jacobians);
+  }
+
+ private:
+  template <int N>
+  bool WithJets(double const* const* parameters, double* residuals, double** jacobians) const {
+    using J = ceres::Jet<double, N>;
+    const std::vector<int>& free = *free_;
+    J params[5], mount[3], beta[kNumBeta], r[3];
+    for (int i = 0; i < 5; ++i) params[i] = J(parameters[0][i], i);
+    for (int i = 0; i < 3; ++i) mount[i] = J(parameters[1][i], 5 + i);
+    for (int j = 0; j < kNumBeta; ++j) beta[j] = J(parameters[2][j]);
+    for (std::size_t k = 0; k < free.size(); ++k) beta[free[k]].v[8 + k] = 1.0;
+    if (!(*model_)(params, mount, beta, r)) return false;
+    for (int i = 0; i < 3; ++i) {
+      residuals[i] = r[i].a;
+      if (jacobians[0] != nullptr)
+        for (int c = 0; c < 5; ++c) jacobians[0][5 * i + c] = r[i].v[c];
+      if (jacobians[1] != nullptr)
+        for (int c = 0; c < 3; ++c) jacobians[1][3 * i + c] = r[i].v[5 + c];
+      if (jacobians[2] != nullptr) {
+        for (int c = 0; c < kNumBeta; ++c) jacobians[2][kNumBeta * i + c] = 0.0;
+        for (std::size_t k = 0; k < free.size(); ++k) jacobians[2][kNumBeta * i + free[k]] = r[i].v[8 + k];
+      }
+    }
+    return true;
+  }
+
+  const IntervalModel* model_;
+  const std::vector<int>* free_;
 };
 
 }  // namespace calib::diag
