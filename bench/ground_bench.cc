@@ -39,10 +39,19 @@ std::pair<double, double> Time(int repeat, F&& f) {
 int main(int argc, char** argv) {
   size_t points = 120000;
   int repeat = 30;
-  for (int i = 1; i + 1 < argc; i += 2) {
+  for (int i = 1; i < argc; i += 2) {
     const std::string key = argv[i];
+    const bool known = key == "--points" || key == "--repeat";
+    if (!known || i + 1 >= argc) {
+      const bool help = key == "--help" || key == "-h";
+      std::fprintf(help ? stdout : stderr,
+                   "usage: agvcal-bench-ground [--points N] [--repeat R]\n"
+                   "Times the floor fit and the grid search on one simulated 3D lidar frame\n"
+                   "(N points, default 120000; R repetitions, default 30), single-threaded.\n");
+      return help ? 0 : 2;
+    }
     if (key == "--points") points = std::strtoul(argv[i + 1], nullptr, 10);
-    else if (key == "--repeat") repeat = std::max(1, std::atoi(argv[i + 1]));
+    else repeat = std::max(1, std::atoi(argv[i + 1]));
   }
   const calib::SimConfig config = calib::ParseSimConfig(R"(
 robot: ../robots/forklift.yaml

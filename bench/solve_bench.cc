@@ -15,6 +15,14 @@
 
 int main(int argc, char** argv) {
   using Clock = std::chrono::steady_clock;
+  if (argc > 2 || (argc == 2 && argv[1][0] == '-')) {
+    const bool help = argc == 2 && (std::string(argv[1]) == "--help" || std::string(argv[1]) == "-h");
+    std::fprintf(help ? stdout : stderr,
+                 "usage: agvcal-bench-solve [SIM_CONFIG.yaml]\n"
+                 "Simulates 10 minutes of the config (default config/sims/diff_robot.yaml) with 25 Hz,\n"
+                 "720-beam scans and times `agvcal solve` on it (reading, scan matching, calibration).\n");
+    return help ? 0 : 2;
+  }
   const std::string sim = argc > 1 ? argv[1] : std::string(AGVCAL_SOURCE_DIR) + "/config/sims/diff_robot.yaml";
   const std::string log = "/tmp/agvcal_solve_bench.log";
   calib::SimConfig config = calib::LoadSimConfig(sim);
