@@ -15,10 +15,13 @@ bool WheelTrack::Append(const WheelSample& sample) {
   // Steering readings are stored from the first one that is not +0 on (zeros before it).
   const bool steered = std::any_of(sample.steer.begin(), sample.steer.end(),
                                    [](double s) { return s != 0.0 || std::signbit(s); });
-  if (steered && steer_.empty()) steer_.assign(utime_.size() * roles_, 0.0);
+  if (steered && !steered_) {
+    steer_.assign(utime_.size() * roles_, 0.0);
+    steered_ = true;
+  }
   utime_.push_back(sample.utime);
   position_.insert(position_.end(), sample.position.begin(), sample.position.end());
-  if (!steer_.empty()) steer_.insert(steer_.end(), sample.steer.begin(), sample.steer.end());
+  if (steered_) steer_.insert(steer_.end(), sample.steer.begin(), sample.steer.end());
   return true;
 }
 
@@ -26,14 +29,14 @@ void WheelTrack::DropBefore(std::size_t first) {
   first = std::min(first, utime_.size());
   utime_.erase(utime_.begin(), utime_.begin() + first);
   position_.erase(position_.begin(), position_.begin() + first * roles_);
-  if (!steer_.empty()) steer_.erase(steer_.begin(), steer_.begin() + first * roles_);
+  if (steered_) steer_.erase(steer_.begin(), steer_.begin() + first * roles_);
 }
 
 WheelSample WheelTrack::sample(std::size_t i) const {
   WheelSample out;
   out.utime = utime_[i];
   out.position.assign(position_.begin() + i * roles_, position_.begin() + (i + 1) * roles_);
-  if (steer_.empty()) {
+  if (!steered_) {
     out.steer.assign(roles_, 0.0);
   } else {
     out.steer.assign(steer_.begin() + i * roles_, steer_.begin() + (i + 1) * roles_);

@@ -45,7 +45,7 @@ class WheelTrack {
   int64_t utime(std::size_t i) const { return utime_[i]; }
   double position(std::size_t i, std::size_t role) const { return position_[i * roles_ + role]; }
   double steer(std::size_t i, std::size_t role) const {
-    return steer_.empty() ? 0.0 : steer_[i * roles_ + role];
+    return steered_ ? steer_[i * roles_ + role] : 0.0;
   }
   WheelSample sample(std::size_t i) const;
   const std::vector<int64_t>& utimes() const { return utime_; }
@@ -74,7 +74,8 @@ class WheelTrack {
   std::size_t roles_ = 0;
   std::vector<int64_t> utime_;
   std::vector<double> position_;  // roles_ per sample
-  std::vector<double> steer_;     // roles_ per sample; empty while every reading is +0
+  std::vector<double> steer_;     // roles_ per sample once steered_; empty before
+  bool steered_ = false;          // a reading other than +0 has come
 };
 
 // Keeps physically impossible wheel samples out of every consumer (solve, diagnose, recal, the
