@@ -7,6 +7,7 @@
 // --catch-up (as scripts/agvcal-group runs it) a solver restarted mid-run first
 // takes what it missed from the group's recording, and ends with the same numbers.
 #include <lcm/lcm-cpp.hpp>
+#include <malloc.h>
 
 #include <chrono>
 #include <future>
@@ -105,6 +106,8 @@ class Solver {
     held_wheels_.clear();
     held_poses_.clear();
     held_motions_.clear();
+    // The solve's memory, freed, goes back to the system rather than stay with the process.
+    malloc_trim(0);
     MaybeSolve();
   }
 
@@ -171,6 +174,11 @@ class Solver {
 
 int Run(int argc, char** argv) {
   using namespace agvcal_process;
+  // A solve's large blocks (the encoder track, Jacobians, residuals) come from the system and go
+  // back when freed: glibc would otherwise raise its mmap and trim thresholds to the largest block
+  // freed so far and keep up to twice that in the heap (docs/live.md, "Memory over long runs").
+  mallopt(M_MMAP_THRESHOLD, 256 * 1024);
+  mallopt(M_TRIM_THRESHOLD, 1024 * 1024);
   const Args args = ParseArgs(argc, argv, 1, {"--source", "--every", "--out", "--catch-up", "--lcm-url"},
                               {"--time-offset"});
   if (const auto status = CheckUsage(args, kUsage, 1)) return *status;
