@@ -12,9 +12,10 @@
 #   --interval S   sampling period, wall seconds (default 1)
 #   --dir DIR      where the recording (kept and reused), the run directory, the offline result and
 #                  the samples (samples.csv) go (default /tmp/agvcal-soak); keep it out of the repository
-# Prints per process (the group's programs, restarted ones summed under one name): RSS after the
-# first minute of data, at its last sample (the end of the run, its final solve included), the
-# growth between them, and the peak (VmHWM); then whether RESULT.json equals the offline solve's.
+# Prints per process (the group's programs, restarted ones under one name), in MB: RSS after the
+# first minute of data, at the end of the data (the replay's last sample), the growth between
+# them, at its last sample (the solver: during its final solve), and the peak (VmHWM); then
+# whether RESULT.json equals the offline solve's.
 # Exit status: 0 the results are equal, 1 they differ or the group failed, 2 bad arguments.
 set -u
 usage() { sed -n '2,19p' "$0" | sed 's/^# \{0,1\}//'; }
@@ -96,14 +97,16 @@ rows = list(csv.DictReader(open(sys.argv[1])))
 speed = float(sys.argv[2])
 players = [float(r["t"]) for r in rows if r["process"] == "lcm-logplayer"]
 t_start = (players[0] if players else 0.0) + 60.0 / speed  # after the first minute of data
-print(f"{'process':<18}{'RSS start MB':>13}{'RSS end MB':>12}{'growth MB':>11}{'peak MB':>9}{'pids':>6}")
+t_data_end = players[-1] if players else float("inf")     # the replay's last sample
+print(f"{'process':<20}{'start MB':>9}{'end of data':>12}{'growth':>8}{'last MB':>9}{'peak MB':>9}{'pids':>5}")
 for name in sorted({r["process"] for r in rows}):
     mine = [r for r in rows if r["process"] == name]
     after = [r for r in mine if float(r["t"]) >= t_start] or mine[-1:]
-    first, last = int(after[0]["rss_kb"]) / 1024, int(mine[-1]["rss_kb"]) / 1024
+    upto = [r for r in mine if float(r["t"]) <= t_data_end] or mine[-1:]
+    first, end, last = (int(x["rss_kb"]) / 1024 for x in (after[0], upto[-1], mine[-1]))
     peak = max(int(r["hwm_kb"]) for r in mine) / 1024
     pids = len({r["pid"] for r in mine})
-    print(f"{name:<18}{first:>13.1f}{last:>12.1f}{last - first:>11.1f}{peak:>9.1f}{pids:>6}")
+    print(f"{name:<20}{first:>9.1f}{end:>12.1f}{end - first:>8.1f}{last:>9.1f}{peak:>9.1f}{pids:>5}")
 PY
 [ "$code" -eq 0 ] || { tail -5 "$run.out"; exit 1; }
 python3 - "$dir/$name.offline.json" "$run/RESULT.json" <<'PY'
