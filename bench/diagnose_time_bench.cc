@@ -23,9 +23,8 @@
 #include <vector>
 
 #include "calib/core/errors.h"
-#include "calib/io/recording.h"
-#include "calib/live/sim_run.h"
 #include "calib/sim/simulator.h"
+#include "sim_recording.h"
 
 namespace {
 
@@ -33,22 +32,6 @@ double ChildCpuSeconds() {
   rusage usage{};
   getrusage(RUSAGE_CHILDREN, &usage);
   return usage.ru_utime.tv_sec + usage.ru_stime.tv_sec + 1e-6 * (usage.ru_utime.tv_usec + usage.ru_stime.tv_usec);
-}
-
-// Default runs of `sim` back to back until `seconds` are recorded; returns the recorded seconds.
-double WriteRecording(calib::SimConfig config, double seconds, const std::string& path) {
-  calib::LogWriter writer(path);
-  double simulated = 0.0;
-  while (simulated < seconds - 1.0) {
-    calib::OfflineRunOptions run;
-    run.max_duration_s = seconds - simulated;  // the last run cut short
-    const calib::OfflineRunSummary s = calib::RunOffline(config, run, &writer);
-    simulated += s.duration_s;
-    config.start_utime += static_cast<int64_t>((s.duration_s + 10.0) * 1e6);
-    config.seed += 1;
-  }
-  writer.Close();
-  return simulated;
 }
 
 int Run(int argc, char** argv) {
@@ -98,7 +81,7 @@ int Run(int argc, char** argv) {
       const std::string stem = (keep.empty() ? std::string("/tmp/agvcal_bench_diagnose") : keep + "/" +
                                 name.substr(0, name.rfind('.')) + "-" + std::to_string(int(m)) + "min");
       const std::string log = stem + ".log";
-      const double recorded = WriteRecording(config, 60.0 * m, log);
+      const double recorded = agvcal_bench::WriteRecording(config, 60.0 * m, log);
       for (int j : jobs) {
         const std::string out = stem + (j > 0 ? "-jobs" + std::to_string(j) : std::string()) + ".json";
         const std::string command = agvcal + " diagnose " + config.robot.source_file + " " + log + " --out " + out +

@@ -264,8 +264,9 @@ TEST(HeldoutWindows, HalvesOfAChangedRobotDisagree) {
   // The second recording follows the first one 1 s after its end, with no motion across the joint.
   const int64_t shift = first.wheels().last_utime() + 1'000'000 - second.wheels().first_utime();
   CalibrationData spliced(original.robot);
-  for (const WheelSample& w : first.wheels().samples()) spliced.AddWheels(w);
-  for (WheelSample w : second.wheels().samples()) {
+  for (std::size_t i = 0; i < first.wheels().size(); ++i) spliced.AddWheels(first.wheels().sample(i));
+  for (std::size_t i = 0; i < second.wheels().size(); ++i) {
+    WheelSample w = second.wheels().sample(i);
     w.utime += shift;
     spliced.AddWheels(w);
   }

@@ -7,8 +7,12 @@
 // --catch-up (as scripts/agvcal-group runs it) a solver restarted mid-run first
 // takes what it missed from the group's recording, and ends with the same numbers.
 #include <lcm/lcm-cpp.hpp>
+#include <malloc.h>
 
+#include <chrono>
+#include <future>
 #include <iostream>
+#include <vector>
 
 #include "calib/calibrate/calibration_data.h"
 #include "calib/calibrate/result_files.h"
@@ -41,6 +45,12 @@ Exit status: 0 stopped by SIGINT/SIGTERM (after the final solve), 2 bad robot
 file or bus, 3 the final solve cannot determine a parameter, 1 internal.
 )";
 
+// Intermediate solves run on a worker thread while the main thread keeps receiving: a solve
+// on a long run's data takes seconds (2.5 s at one hour of 100 Hz wheel data), and a process
+// that stops reading that long loses messages in the bus's buffers, which changes the final
+// result (docs/live.md, "Memory over long runs"). Messages received during a solve are held
+// and added, in their order, when it ends, so the data, and the final solve on them, are those
+// of a serial run.
 class Solver {
  public:
   Solver(const calib::RobotDescription& robot, calib::MotionSource source, calib::CalibrationOptions options,
@@ -49,16 +59,24 @@ class Solver {
 
   // Subscribes to WHEELS and the motion channel (SCAN_MATCH, or the robot file's pose channel).
   void Subscribe(calib::MessageSource* source) {
-    calib::SubscribeWheels(source, robot_, [this](const calib::WheelSample& sample) { data_.AddWheels(sample); });
+    calib::SubscribeWheels(source, robot_, [this](const calib::WheelSample& sample) {
+      if (solving()) {
+        held_wheels_.push_back(sample);
+      } else {
+        data_.AddWheels(sample);
+      }
+    });
     if (source_ == calib::MotionSource::kPose) {
       calib::SubscribePoses(source, calib::PoseChannel(robot_), [this](const calib::StampedPose& pose) {
+        if (solving()) return held_poses_.push_back(pose);
         data_.AddPose(pose);
-        if (!holding_solves_) MaybeSolve();
+        MaybeSolve();
       });
     } else {
       calib::SubscribeScanMatches(source, [this](const calib::SensorMotion& motion) {
+        if (solving()) return held_motions_.push_back(motion);
         data_.AddMotion(motion);
-        if (!holding_solves_) MaybeSolve();
+        MaybeSolve();
       });
     }
   }
@@ -67,14 +85,59 @@ class Solver {
   // While catching up, no intermediate solves (they would be outdated at once).
   void set_holding_solves(bool hold) {
     holding_solves_ = hold;
-    if (!hold) MaybeSolve();
+    MaybeSolve();
   }
 
-  // Solves on everything collected; publishes the estimate and the new residuals.
-  // Throws what Calibrate throws when `final`.
-  calib::CalibrationResult Solve(bool final) {
-    const calib::CalibrationResult result = calib::Calibrate(
-        robot_, data_.wheels(), data_.motions(), source_, options_, "live " + std::string(calib::MotionSourceName(source_)));
+  // Publishes an intermediate solve that has ended (all `wait`ing for one that runs), adds
+  // the messages held meanwhile and starts the next solve if they call for one.
+  void Poll(bool wait = false) {
+    using namespace std::chrono_literals;
+    if (!solving() || (!wait && running_.wait_for(0s) != std::future_status::ready)) return;
+    try {
+      Publish(running_.get(), false);
+    } catch (const calib::UnobservableError& e) {
+      PublishStatus("unobservable", std::string(e.what()) + "; " + e.remedy());
+    } catch (const calib::InputError& e) {
+      PublishStatus("waiting", e.what());
+    }
+    for (const calib::WheelSample& sample : held_wheels_) data_.AddWheels(sample);
+    for (const calib::StampedPose& pose : held_poses_) data_.AddPose(pose);
+    for (const calib::SensorMotion& motion : held_motions_) data_.AddMotion(motion);
+    held_wheels_.clear();
+    held_poses_.clear();
+    held_motions_.clear();
+    // The solve's memory, freed, goes back to the system rather than stay with the process.
+    malloc_trim(0);
+    MaybeSolve();
+  }
+
+  // The final solve on everything collected (after an intermediate one still running);
+  // publishes the estimate and the new residuals. Throws what Calibrate throws.
+  calib::CalibrationResult SolveFinal() {
+    holding_solves_ = true;  // no new one
+    Poll(true /* wait */);
+    calib::CalibrationResult result = Calibrate();
+    Publish(result, true);
+    return result;
+  }
+
+ private:
+  bool solving() const { return running_.valid(); }
+
+  calib::CalibrationResult Calibrate() const {
+    return calib::Calibrate(robot_, data_.wheels(), data_.motions(), source_, options_,
+                            "live " + std::string(calib::MotionSourceName(source_)));
+  }
+
+  // Starts an intermediate solve on a worker thread once `every_` new motions have come.
+  void MaybeSolve() {
+    if (holding_solves_ || solving() || data_.motions().size() < solved_at_ + every_) return;
+    solved_at_ = data_.motions().size();
+    running_ = std::async(std::launch::async, [this] { return Calibrate(); });
+  }
+
+  // The estimate and the residuals newer than those published before.
+  void Publish(const calib::CalibrationResult& result, bool final) {
     const int64_t utime = data_.motions().empty() ? 0 : data_.motions().back().utime_end;
     const agvcal::calib_estimate_t estimate = calib::ToMessage(result, utime, final ? "final" : "ok");
     lcm_->publish(calib::kCalibEstimateChannel, &estimate);
@@ -84,23 +147,9 @@ class Solver {
       lcm_->publish(calib::kCalibResidualsChannel, &m);
       last_residual_utime_ = r.utime_end;
     }
-    return result;
   }
 
- private:
-  void MaybeSolve() {
-    if (data_.motions().size() < solved_at_ + every_) return;
-    solved_at_ = data_.motions().size();
-    try {
-      Solve(false);
-    } catch (const calib::UnobservableError& e) {
-      Publish("unobservable", std::string(e.what()) + "; " + e.remedy());
-    } catch (const calib::InputError& e) {
-      Publish("waiting", e.what());
-    }
-  }
-
-  void Publish(const std::string& status, const std::string& message) {
+  void PublishStatus(const std::string& status, const std::string& message) {
     agvcal::calib_estimate_t m{};
     m.utime = data_.motions().empty() ? 0 : data_.motions().back().utime_end;
     m.drive = calib::DriveTypeName(robot_.drive);
@@ -112,15 +161,24 @@ class Solver {
   const calib::RobotDescription& robot_;
   calib::MotionSource source_;
   calib::CalibrationOptions options_;
-  calib::CalibrationData data_;
+  calib::CalibrationData data_;  // read by the worker while it solves: added to only between solves
   lcm::LCM* lcm_;
   std::size_t every_ = 200, solved_at_ = 0;
   bool holding_solves_ = false;
   int64_t last_residual_utime_ = 0;
+  std::future<calib::CalibrationResult> running_;  // the intermediate solve, while one runs
+  std::vector<calib::WheelSample> held_wheels_;     // received while it runs
+  std::vector<calib::StampedPose> held_poses_;
+  std::vector<calib::SensorMotion> held_motions_;
 };
 
 int Run(int argc, char** argv) {
   using namespace agvcal_process;
+  // A solve's large blocks (the encoder track, Jacobians, residuals) come from the system and go
+  // back when freed: glibc would otherwise raise its mmap and trim thresholds to the largest block
+  // freed so far and keep up to twice that in the heap (docs/live.md, "Memory over long runs").
+  mallopt(M_MMAP_THRESHOLD, 256 * 1024);
+  mallopt(M_TRIM_THRESHOLD, 1024 * 1024);
   const Args args = ParseArgs(argc, argv, 1, {"--source", "--every", "--out", "--catch-up", "--lcm-url"},
                               {"--time-offset"});
   if (const auto status = CheckUsage(args, kUsage, 1)) return *status;
@@ -148,6 +206,7 @@ int Run(int argc, char** argv) {
   }
   while (!bus.done()) {
     bus.HandleNext(100);
+    solver.Poll();
     heartbeat.Beat("running");
   }
   // Messages already received when the stop came (e.g. the scan matcher's last
@@ -156,7 +215,7 @@ int Run(int argc, char** argv) {
   bus.Finish();  // a wheel sample held after a gap
   if (bus.skipped() > 0) std::cerr << "agvcal-solver: " << bus.skipped() << " unusable messages skipped\n";
   if (bus.dropped() > 0) std::cerr << "agvcal-solver: " << bus.dropped() << " message(s) left out of the fit\n";
-  calib::CalibrationResult result = solver.Solve(true);
+  calib::CalibrationResult result = solver.SolveFinal();
   result.input_dropped = bus.dropped();
   result.input_notes = bus.drop_notes();
   if (args.Has("--out")) calib::WriteFileAtomically(args.Get("--out", ""), calib::CalibrationResultJson(result));

@@ -563,7 +563,7 @@ CalibrationResult Calibrate(const RobotDescription& robot, const WheelTrack& whe
   for (std::size_t k = 0; k < usable.size(); ++k) {
     const SensorMotion& m = *usable[k];
     intervals.push_back(MakeInterval(track, num_params, m, margin_us, k >= num_fit));
-    if (k < num_fit) closed_form_input.push_back({wheels.Increments(m.utime_start, m.utime_end), m.delta});
+    if (k < num_fit) closed_form_input.push_back({&wheels, m.utime_start, m.utime_end, m.delta});
   }
 
   const State nominal = StateOf(robot, source);

@@ -22,7 +22,7 @@ double MeanSteer(const WheelIncrement& step, std::size_t wheel) {
 // The two regressors of the rotation step of an interval (see closed_form.h).
 Eigen::Vector2d RotationRegressors(DriveType type, const MotionInterval& interval) {
   Eigen::Vector2d a = Eigen::Vector2d::Zero();
-  for (const WheelIncrement& step : interval.steps) {
+  for (const WheelIncrement& step : interval.steps()) {
     if (type == DriveType::kDifferential) {
       a += Eigen::Vector2d(step.rotation[0], step.rotation[1]);
     } else {  // the steered (drive / a1) wheel
@@ -40,7 +40,7 @@ Pose2 IntegrateSteps(DriveType type, const double* params, const MotionInterval&
                      double* forward) {
   generic::Pose<double> pose{0.0, 0.0, 0.0};
   *forward = 0.0;
-  for (const WheelIncrement& step : interval.steps) {
+  for (const WheelIncrement& step : interval.steps()) {
     double dx, dy, dtheta;
     const double steer = step.steer_start.empty() ? 0.0 : MeanSteer(step, 0);
     generic::BodyDisplacement(type, params, step.rotation.data(), &steer, &dx, &dy, &dtheta);
@@ -62,10 +62,11 @@ double Condition(const Eigen::Matrix2d& normal) {
 std::vector<const MotionInterval*> UsableIntervals(DriveType type, const std::vector<MotionInterval>& all) {
   std::vector<const MotionInterval*> intervals;
   for (const MotionInterval& m : all) {
-    if (m.steps.empty()) continue;
+    const std::vector<WheelIncrement> steps = m.steps();
+    if (steps.empty()) continue;
     bool use = true;
     if (type == DriveType::kDualSteer) {
-      for (const WheelIncrement& s : m.steps) use = use && std::abs(MeanSteer(s, 1)) < kA2StraightRad;
+      for (const WheelIncrement& s : steps) use = use && std::abs(MeanSteer(s, 1)) < kA2StraightRad;
     }
     if (use) intervals.push_back(&m);
   }
@@ -81,7 +82,7 @@ bool SecondWheel(const std::vector<const MotionInterval*>& intervals, const std:
   Eigen::Vector2d r2 = Eigen::Vector2d::Zero();
   for (std::size_t k = 0; k < intervals.size(); ++k) {
     double phi2 = 0.0;
-    for (const WheelIncrement& st : intervals[k]->steps) phi2 += st.rotation[1];
+    for (const WheelIncrement& st : intervals[k]->steps()) phi2 += st.rotation[1];
     const Eigen::Vector2d row(phi2, -intervals[k]->sensor_motion.theta);
     n2 += row * row.transpose();
     r2 += row * (s * forward[k]);

@@ -63,10 +63,9 @@ class GyroIntegral {
 // Smallest non-zero encoder step of each wheel: the tick (rad).
 std::vector<double> EncoderTicks(const WheelTrack& wheels) {
   std::vector<double> tick(2, kInf);
-  const auto& s = wheels.samples();
-  for (size_t i = 1; i < s.size(); ++i)
+  for (size_t i = 1; i < wheels.size(); ++i)
     for (size_t w = 0; w < 2; ++w) {
-      const double d = std::abs(s[i].position[w] - s[i - 1].position[w]);
+      const double d = std::abs(wheels.position(i, w) - wheels.position(i - 1, w));
       if (d > 1e-12) tick[w] = std::min(tick[w], d);
     }
   for (double& t : tick)
@@ -76,22 +75,26 @@ std::vector<double> EncoderTicks(const WheelTrack& wheels) {
 
 // Standstills and motions, alternating, covering the track.
 std::vector<ImuSpan> CutSpans(const WheelTrack& wheels, double standstill_s) {
-  const auto& s = wheels.samples();
   std::vector<std::pair<double, double>> still;  // [start, end], us
   size_t run = 0;
   auto close_run = [&](size_t end) {
-    const double t0 = double(s[run].utime), t1 = double(s[end].utime);
+    const double t0 = double(wheels.utime(run)), t1 = double(wheels.utime(end));
     if ((t1 - t0) * 1e-6 >= standstill_s) still.push_back({t0 + kStillMargin_s * 1e6, t1 - kStillMargin_s * 1e6});
   };
-  for (size_t i = 1; i < s.size(); ++i) {
-    if (s[i].position != s[run].position) {
+  const auto moved = [&](size_t i) {
+    for (size_t w = 0; w < wheels.roles(); ++w)
+      if (wheels.position(i, w) != wheels.position(run, w)) return true;
+    return false;
+  };
+  for (size_t i = 1; i < wheels.size(); ++i) {
+    if (moved(i)) {
       close_run(i - 1);
       run = i;
     }
   }
-  close_run(s.size() - 1);
+  close_run(wheels.size() - 1);
   std::vector<ImuSpan> spans;
-  double cursor = double(s.front().utime);
+  double cursor = double(wheels.first_utime());
   auto rotation = [&](double t0, double t1, ImuSpan* span) {
     const WheelSample a = wheels.At(t0), b = wheels.At(t1);
     span->left_rad = b.position[0] - a.position[0];
@@ -112,12 +115,12 @@ std::vector<ImuSpan> CutSpans(const WheelTrack& wheels, double standstill_s) {
     spans.push_back(st);
     cursor = t1;
   }
-  if (double(s.back().utime) > cursor) {
+  if (double(wheels.last_utime()) > cursor) {
     ImuSpan m;
     m.moving = true;
     m.utime_start = std::llround(cursor);
-    m.utime_end = s.back().utime;
-    rotation(cursor, double(s.back().utime), &m);
+    m.utime_end = wheels.last_utime();
+    rotation(cursor, double(wheels.last_utime()), &m);
     if (m.left_rad != 0.0 || m.right_rad != 0.0) spans.push_back(m);
   }
   return spans;

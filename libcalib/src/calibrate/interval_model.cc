@@ -30,16 +30,14 @@ EncoderTrack MakeEncoderTrack(DriveType drive, const WheelTrack& wheels) {
   EncoderTrack track;
   track.drive = drive;
   track.wheels = static_cast<int>(WheelRoles(drive).size());
-  const std::vector<WheelSample>& samples = wheels.samples();
-  const std::size_t n = samples.size();
-  track.utime.resize(n);
+  const std::size_t n = wheels.size();
+  track.utime = wheels.utimes();
   track.pos.assign(n, {0, 0});
   track.steer.assign(n, {0, 0});
   for (std::size_t i = 0; i < n; ++i) {
-    track.utime[i] = samples[i].utime;
     for (int w = 0; w < track.wheels; ++w) {
-      track.pos[i][w] = samples[i].position[w];
-      track.steer[i][w] = samples[i].steer[w];
+      track.pos[i][w] = wheels.position(i, w);
+      track.steer[i][w] = wheels.steer(i, w);
     }
   }
   return track;

@@ -204,27 +204,27 @@ std::vector<WheelSample> ReadingsAt(const WheelTrack& track, const std::vector<d
   const double margin = smoothing_s * 1e6;
   const double lo = std::max(knots.front() - margin, double(track.first_utime()));
   const double hi = std::min(knots.back() + margin, double(track.last_utime()));
-  const auto& samples = track.samples();
-  auto first = std::lower_bound(samples.begin(), samples.end(), lo,
-                                [](const WheelSample& s, double t) { return double(s.utime) < t; });
-  auto last = std::upper_bound(samples.begin(), samples.end(), hi,
-                               [](double t, const WheelSample& s) { return t < double(s.utime); });
-  if (smoothing_s <= 0.0 || last - first < 5) {
+  const std::vector<int64_t>& utime = track.utimes();
+  const std::size_t first = std::lower_bound(utime.begin(), utime.end(), lo,
+                                             [](int64_t u, double t) { return double(u) < t; }) - utime.begin();
+  const std::size_t last = std::upper_bound(utime.begin(), utime.end(), hi,
+                                            [](double t, int64_t u) { return t < double(u); }) - utime.begin();
+  if (smoothing_s <= 0.0 || last < first + 5) {
     for (double t : knots) out.push_back(track.At(t));
     return out;
   }
   const double centre = 0.5 * (knots.front() + knots.back());
-  const std::size_t roles = first->position.size();
+  const std::size_t roles = track.roles();
   Eigen::Matrix3d normal = Eigen::Matrix3d::Zero();
   Eigen::MatrixXd rhs = Eigen::MatrixXd::Zero(3, 2 * roles);
-  for (auto it = first; it != last; ++it) {
-    const double tau = (double(it->utime) - centre) * 1e-6;
+  for (std::size_t i = first; i != last; ++i) {
+    const double tau = (double(utime[i]) - centre) * 1e-6;
     const Eigen::Vector3d basis(1.0, tau, tau * tau);
     normal += basis * basis.transpose();
     for (std::size_t r = 0; r < roles; ++r) {
       // Relative to the first sample: positions are unbounded, keep precision.
-      rhs.col(r) += basis * (it->position[r] - first->position[r]);
-      rhs.col(roles + r) += basis * it->steer[r];
+      rhs.col(r) += basis * (track.position(i, r) - track.position(first, r));
+      rhs.col(roles + r) += basis * track.steer(i, r);
     }
   }
   const Eigen::MatrixXd coefficients = normal.ldlt().solve(rhs);
@@ -234,7 +234,7 @@ std::vector<WheelSample> ReadingsAt(const WheelTrack& track, const std::vector<d
     WheelSample sample;
     sample.utime = static_cast<int64_t>(std::llround(t));
     for (std::size_t r = 0; r < roles; ++r) {
-      sample.position.push_back(first->position[r] + basis.dot(coefficients.col(r)));
+      sample.position.push_back(track.position(first, r) + basis.dot(coefficients.col(r)));
       sample.steer.push_back(basis.dot(coefficients.col(roles + r)));
     }
     out.push_back(sample);
@@ -254,10 +254,9 @@ ScanPoints DeskewScan(const LaserScan& scan, const WheelTrack& track, const Driv
   // Knots: the scan's ends and the encoder samples between them. The sensor
   // moves with a constant twist between knots.
   std::vector<double> knots{t0};
-  const auto& samples = track.samples();
-  auto it = std::upper_bound(samples.begin(), samples.end(), t0,
-                             [](double t, const WheelSample& s) { return t < double(s.utime); });
-  for (; it != samples.end() && double(it->utime) < t1; ++it) knots.push_back(double(it->utime));
+  const std::vector<int64_t>& utime = track.utimes();
+  auto it = std::upper_bound(utime.begin(), utime.end(), t0, [](double t, int64_t u) { return t < double(u); });
+  for (; it != utime.end() && double(*it) < t1; ++it) knots.push_back(double(*it));
   knots.push_back(t1);
   const std::vector<WheelSample> readings = ReadingsAt(track, knots, smoothing_s);
 
@@ -594,8 +593,8 @@ void ScanMatchPipeline::AddWheels(const WheelSample& sample) {
     throw std::invalid_argument("ScanMatchPipeline::AddWheels: sample has " +
                                 std::to_string(sample.position.size()) + " wheels, expected " +
                                 std::to_string(num_wheels_));
-  const bool had_samples = !track_.samples().empty();
-  const int64_t previous_utime = had_samples ? track_.samples().back().utime : 0;
+  const bool had_samples = !track_.empty();
+  const int64_t previous_utime = had_samples ? track_.last_utime() : 0;
   if (!track_.Append(sample)) {
     ++counts_.wheels_dropped;
     return;
@@ -618,7 +617,7 @@ void ScanMatchPipeline::AddScan(const LaserScan& scan) {
   have_scan_ = true;
   last_scan_utime_ = scan.utime;
   ++counts_.scans;
-  if (!track_.samples().empty()) CheckClocks(scan.utime, track_.samples().back().utime);
+  if (!track_.empty()) CheckClocks(scan.utime, track_.last_utime());
   pending_.push_back(scan);
   if (static_cast<int>(pending_.size()) > std::max(options_.max_pending_scans, 1)) {
     pending_.pop_front();
@@ -689,25 +688,23 @@ void ScanMatchPipeline::Process(bool finishing) {
       const Pose2 prior = PredictSensorMotion(track_, *model_, mount_, t0, t1);
       SensorMotion motion = MatchScans(*reference_, prepared, prior, options_);
       // Encoder gaps over the pair: the prior and the de-skewing are guesses there.
-      const auto& samples = track_.samples();
-      auto it =
-          std::upper_bound(samples.begin(), samples.end(), t0,
-                           [](double t, const WheelSample& s) { return t < double(s.utime); });
-      if (it != samples.begin()) --it;
+      const std::vector<int64_t>& utime = track_.utimes();
+      auto it = std::upper_bound(utime.begin(), utime.end(), t0, [](double t, int64_t u) { return t < double(u); });
+      if (it != utime.begin()) --it;
       // A gap is a dropout when it is longer than max_wheel_gap_s and than
       // wheel_gap_factor times the stream's median interval before the pair
       // (a slow encoder stream is the recording's rate, not a gap). The
       // median is taken over samples before the pair only, so live and
       // offline agree whatever the interleaving.
       const int64_t typical =
-          std::lower_bound(typical_interval_.begin(), typical_interval_.end(), it->utime,
+          std::lower_bound(typical_interval_.begin(), typical_interval_.end(), *it,
                            [](const std::pair<int64_t, int64_t>& e, int64_t t) { return e.first < t; })
               ->second;
       const double limit_us =
           1e6 * std::max(options_.max_wheel_gap_s, options_.wheel_gap_factor * double(typical) * 1e-6);
       int64_t gap = 0;
-      for (; it + 1 != samples.end() && double(it->utime) < double(scan.end_utime()); ++it)
-        gap = std::max(gap, (it + 1)->utime - it->utime);
+      for (; it + 1 != utime.end() && double(*it) < double(scan.end_utime()); ++it)
+        gap = std::max(gap, *(it + 1) - *it);
       if (double(gap) > limit_us) {
         motion.valid = false;
         ++counts_.wheel_gaps;
@@ -727,17 +724,11 @@ void ScanMatchPipeline::Process(bool finishing) {
 void ScanMatchPipeline::ReleaseOldWheels() {
   // Keep the last sample at or before the reference scan (the prior starts
   // there) less the smoothing margin (the next scan's de-skewing reads back to there).
-  const auto& samples = track_.samples();
   const double t0 = double(reference_->utime()) - std::max(options_.deskew_smoothing_s, 0.0) * 1e6;
-  auto it = std::upper_bound(samples.begin(), samples.end(), t0,
-                             [](double t, const WheelSample& s) { return t < double(s.utime); });
-  if (it != samples.begin()) --it;
-  const std::size_t drop = static_cast<std::size_t>(it - samples.begin());
-  if (drop < 1024 || drop < samples.size() / 2) return;  // rebuild rarely: amortised O(1)
-  WheelTrack kept;
-  for (; it != samples.end(); ++it) kept.Append(*it);
-  track_ = std::move(kept);
-  while (typical_interval_.front().first < track_.samples().front().utime) typical_interval_.pop_front();
+  const std::size_t drop = track_.IndexBefore(t0);
+  if (drop < 1024 || drop < track_.size() / 2) return;  // rebuild rarely: amortised O(1)
+  track_.DropBefore(drop);
+  while (typical_interval_.front().first < track_.first_utime()) typical_interval_.pop_front();
 }
 
 }  // namespace calib

@@ -18,6 +18,7 @@
 //   3. dual steer only: a2 travels as far as W's x motion plus a times the
 //      rotation, r2 phi2 = dx + a dtheta: linear in (r2, a).
 
+#include <cstdint>
 #include <map>
 #include <string>
 #include <vector>
@@ -25,13 +26,18 @@
 #include "calib/core/kinematics.h"
 #include "calib/core/robot.h"
 #include "calib/core/se2.h"
+#include "calib/core/wheel_track.h"
 
 namespace calib {
 
-// One interval: the encoder steps over it and the sensor's measured motion.
+// One interval: the encoder steps over [utime_start, utime_end] of `wheels` and the sensor's
+// measured motion. The steps are taken from the track when needed, not held: held for every
+// interval of a long recording they took several times the track's own memory.
 struct MotionInterval {
-  std::vector<WheelIncrement> steps;
+  const WheelTrack* wheels = nullptr;
+  int64_t utime_start = 0, utime_end = 0;
   Pose2 sensor_motion;
+  std::vector<WheelIncrement> steps() const { return wheels->Increments(utime_start, utime_end); }
 };
 
 struct ClosedFormEstimate {

@@ -22,18 +22,38 @@ struct WheelSample {
   std::vector<double> steer;     // raw steering reading per role, rad (0 if not steered)
 };
 
+// Stored compactly, since a live solver keeps every sample of a long run (docs/live.md, "Memory
+// over long runs"): one stamp and one reading per role in flat arrays, and no steering readings
+// at all while every one is zero (an unsteered drive): 24 bytes per sample of a differential
+// drive instead of two heap vectors each. Values are kept exactly.
 class WheelTrack {
  public:
   // Appends a sample. Stamps must increase: a sample at or before the last one
   // is refused (returns false, the track is unchanged), so out-of-order and
-  // duplicated messages cannot corrupt the integration.
+  // duplicated messages cannot corrupt the integration. So is one whose number of
+  // wheels differs from the first sample's.
   bool Append(const WheelSample& sample);
+  // Forgets the samples before index `first` (a consumer that needs only recent data).
+  void DropBefore(std::size_t first);
 
-  bool empty() const { return samples_.empty(); }
-  std::size_t size() const { return samples_.size(); }
-  int64_t first_utime() const { return samples_.front().utime; }
-  int64_t last_utime() const { return samples_.back().utime; }
-  const std::vector<WheelSample>& samples() const { return samples_; }
+  bool empty() const { return utime_.empty(); }
+  std::size_t size() const { return utime_.size(); }
+  std::size_t roles() const { return roles_; }
+  int64_t first_utime() const { return utime_.front(); }
+  int64_t last_utime() const { return utime_.back(); }
+  // Sample i's stamp, readings, or all of it.
+  int64_t utime(std::size_t i) const { return utime_[i]; }
+  double position(std::size_t i, std::size_t role) const { return position_[i * roles_ + role]; }
+  double steer(std::size_t i, std::size_t role) const {
+    return steered_ ? steer_[i * roles_ + role] : 0.0;
+  }
+  WheelSample sample(std::size_t i) const;
+  const std::vector<int64_t>& utimes() const { return utime_; }
+  // Bytes held (capacity), for the memory figures.
+  std::size_t bytes() const;
+
+  // Index of the last sample at or before `utime` (0 if it precedes the track).
+  std::size_t IndexBefore(double utime) const;
 
   // True when [t0, t1] lies within the recorded span.
   bool Covers(double t0, double t1) const;
@@ -51,7 +71,11 @@ class WheelTrack {
   Pose2 Odometry(const DriveModel& model, double t0, double t1) const;
 
  private:
-  std::vector<WheelSample> samples_;
+  std::size_t roles_ = 0;
+  std::vector<int64_t> utime_;
+  std::vector<double> position_;  // roles_ per sample
+  std::vector<double> steer_;     // roles_ per sample once steered_; empty before
+  bool steered_ = false;          // a reading other than +0 has come
 };
 
 // Keeps physically impossible wheel samples out of every consumer (solve, diagnose, recal, the
