@@ -1,0 +1,43 @@
+#!/usr/bin/env python3
+"""Writes a copy of an lcm-logger recording whose scans on one channel (default SCAN) declare no
+beam timing: laser_scan_t's time_increment and scan_time (spec/messages.md) set to 0, as a device
+that does not report them (issue 16, docs/mismatch.md "Time offsets: injected into real
+recordings"). Nothing else changes, so the truth of the injection is exact: the scans' beams were
+taken when they were, and only what the recording says about it is gone.
+  drop_beam_timing.py IN.log OUT.log [CHANNEL]
+Prints how many scans carried timing before."""
+import struct
+import sys
+
+
+def main():
+    if len(sys.argv) < 3 or sys.argv[1] in ('-h', '--help'):
+        print(__doc__)
+        return 0 if len(sys.argv) > 1 and sys.argv[1] in ('-h', '--help') else 2
+    src, dst = sys.argv[1], sys.argv[2]
+    channel = sys.argv[3] if len(sys.argv) > 3 else 'SCAN'
+    data = bytearray(open(src, 'rb').read())
+    pos, scans, per_beam, period = 0, 0, 0, 0
+    while pos + 28 <= len(data):
+        sync, _, _, channel_len, data_len = struct.unpack('>IqqII', data[pos:pos + 28])
+        if sync != 0xEDA1DA01:
+            sys.exit(f'{src}: byte {pos}: not an lcm-logger event (sync word {sync:#x})')
+        name = data[pos + 28:pos + 28 + channel_len].decode()
+        if name == channel:
+            # hash (8), utime (8), angle_min (4), angle_increment (4), time_increment (4), scan_time (4)
+            field = pos + 28 + channel_len + 24
+            time_increment, scan_time = struct.unpack_from('>ff', data, field)
+            per_beam += time_increment != 0.0
+            period += scan_time != 0.0
+            struct.pack_into('>ff', data, field, 0.0, 0.0)
+            scans += 1
+        pos += 28 + channel_len + data_len
+    if scans == 0:
+        sys.exit(f'{src}: no message on {channel}')
+    open(dst, 'wb').write(data)
+    print(f'{dst}: {scans} scans on {channel}; {per_beam} carried a time_increment and {period} a scan_time; now none does')
+    return 0
+
+
+if __name__ == '__main__':
+    sys.exit(main())
