@@ -9,6 +9,8 @@ Prints how many scans carried timing before."""
 import struct
 import sys
 
+from shift_scan_stamps import channel_events
+
 
 def main():
     if len(sys.argv) < 3 or sys.argv[1] in ('-h', '--help'):
@@ -17,21 +19,14 @@ def main():
     src, dst = sys.argv[1], sys.argv[2]
     channel = sys.argv[3] if len(sys.argv) > 3 else 'SCAN'
     data = bytearray(open(src, 'rb').read())
-    pos, scans, per_beam, period = 0, 0, 0, 0
-    while pos + 28 <= len(data):
-        sync, _, _, channel_len, data_len = struct.unpack('>IqqII', data[pos:pos + 28])
-        if sync != 0xEDA1DA01:
-            sys.exit(f'{src}: byte {pos}: not an lcm-logger event (sync word {sync:#x})')
-        name = data[pos + 28:pos + 28 + channel_len].decode()
-        if name == channel:
-            # hash (8), utime (8), angle_min (4), angle_increment (4), time_increment (4), scan_time (4)
-            field = pos + 28 + channel_len + 24
-            time_increment, scan_time = struct.unpack_from('>ff', data, field)
-            per_beam += time_increment != 0.0
-            period += scan_time != 0.0
-            struct.pack_into('>ff', data, field, 0.0, 0.0)
-            scans += 1
-        pos += 28 + channel_len + data_len
+    scans, per_beam, period = 0, 0, 0
+    for _, body in channel_events(data, src, channel):
+        # hash (8), utime (8), angle_min (4), angle_increment (4), time_increment (4), scan_time (4)
+        time_increment, scan_time = struct.unpack_from('>ff', data, body + 24)
+        per_beam += time_increment != 0.0
+        period += scan_time != 0.0
+        struct.pack_into('>ff', data, body + 24, 0.0, 0.0)
+        scans += 1
     if scans == 0:
         sys.exit(f'{src}: no message on {channel}')
     open(dst, 'wb').write(data)
