@@ -11,7 +11,7 @@ declared.
 
 Real (--real): every imported recording with a 2D lidar (scripts/import-datasets.sh; the
 datasets of ../shared/data) is run as recorded and with injections whose truth is exact: every
-SCAN stamp shifted by +37 and +120 ms (tests/tools/shift_scan_stamps.py), and its beam timing
+SCAN stamp shifted by +37 and +120 ms (--shifts-ms) (tests/tools/shift_scan_stamps.py), and its beam timing
 dropped (tests/tools/drop_beam_timing.py). Each injected case is scored against the same
 recording without it: the change of the solve and the diagnose estimate against the injected
 offset (within 10 %), and the effects diagnose declares that it did not declare before.
@@ -33,7 +33,7 @@ HERE = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
 DRIVES = ["diff_robot", "forklift", "dual_steer_agv"]
 OFFSETS_MS = [1, 5, 20, 50, 200, 500]
 SECOND = ("longitudinal_slip", "longitudinal_slip: {slip_per_accel: 0.004}")
-REAL_SHIFTS_S = [0.037, 0.120]
+REAL_SHIFTS_MS = [37, 120]
 
 
 def run(cmd, **kw):
@@ -83,6 +83,16 @@ def solve_and_diagnose(args, robot, log, tag):
     return out
 
 
+def solve_before(args, robot, log, tag):
+    """`solve --time-offset` of the binary in --before-build (diagnose is run by --build only)."""
+    sj = os.path.join(args.work, tag + ".solve_before.json")
+    r = run([os.path.join(args.before_build, "agvcal"), "solve", robot, log, "--time-offset", "--out", sj, "--quiet"])
+    if r.returncode != 0:
+        return {"solve_before_error": f"exit {r.returncode}"}
+    with open(sj) as f:
+        return {"solve_before": json.load(f)["lidar2d"]["time_offset"]["value"]}
+
+
 def within(est, truth, tol=0.10):
     return est is not None and abs(est - truth) <= tol * abs(truth)
 
@@ -110,6 +120,10 @@ def sim_case(args, drive, offset_ms, with_second):
         if r.returncode != 0:
             return tag, {"solve_error": "simulate: " + r.stderr.strip()[:160]}
     res = solve_and_diagnose(args, robot_of(drive), log, tag)
+    if args.before_build and "solve_before" not in res and os.path.exists(log):
+        res.update(solve_before(args, robot_of(drive), log, tag))
+        with open(cache, "w") as f:
+            json.dump(res, f)
     if os.path.exists(log) and not args.keep_logs:
         os.remove(log)
     return tag, res
@@ -119,8 +133,9 @@ def sim_matrix(args):
     cases = [(d, o, s) for d in args.drives for o in args.offsets_ms for s in ([False] if args.only_alone else [False, True])]
     with cf.ThreadPoolExecutor(args.jobs) as pool:
         results = list(pool.map(lambda c: sim_case(args, *c), cases))
-    print("| drive | second effect | truth | `solve --time-offset` | `diagnose` | within 10 % (solve / diagnose) | declared besides the offset |")
-    print("|---|---|---|---|---|---|---|")
+    before = "`solve` before | " if args.before_build else ""
+    print(f"| drive | second effect | truth | {before}`solve --time-offset` | `diagnose` | within 10 % (solve / diagnose) | declared besides the offset |")
+    print("|---|---|---|---|---|---|---|" + ("---|" if args.before_build else ""))
     ok_all = True
     for (drive, o, s), (_, r) in zip(cases, results):
         truth = o * 1e-3
@@ -132,7 +147,11 @@ def sim_matrix(args):
         ok = ok_s and ok_d and r.get("diag_status") == "found" and set(declared) == expected
         ok_all &= ok
         dstat = "" if r.get("diag_status") in (None, "found") else f" ({r['diag_status']})"
-        print(f"| {drive} | {SECOND[0] + ' 0.004' if s else '-'} | {o} ms | "
+        b = ""
+        if args.before_build:
+            b = (r.get("solve_before_error") or ms(r.get("solve_before"))) + \
+                ("" if within(r.get("solve_before"), truth) else " (NO)") + " | "
+        print(f"| {drive} | {SECOND[0] + ' 0.004' if s else '-'} | {o} ms | {b}"
               f"{r.get('solve_error') or ms(r.get('solve'), r.get('solve_std'))} | "
               f"{r.get('diag_error') or ms(r.get('diag'), r.get('diag_std')) + dstat} | "
               f"{'yes' if ok_s else 'NO'} / {'yes' if ok_d else 'NO'} | {extra} |")
@@ -158,13 +177,14 @@ def real_matrix(args):
             if "lidar2d:" not in f.read():
                 continue  # no 2D lidar: no scans to shift
         cases = [("as recorded", log, None)]
-        for shift in REAL_SHIFTS_S:
-            out = os.path.join(args.work, f"{name}_shift{int(shift * 1e3)}.log")
+        for shift in args.shifts_ms:
+            shift *= 1e-3
+            out = os.path.join(args.work, f"{name}_shift{round(shift * 1e3)}.log")
             if not os.path.exists(out):
                 r = run([sys.executable, os.path.join(tools, "shift_scan_stamps.py"), log, out, str(shift)])
                 if r.returncode != 0:
                     raise SystemExit(r.stderr)
-            cases.append((f"SCAN +{int(shift * 1e3)} ms", out, shift))
+            cases.append((f"SCAN {round(shift * 1e3):+d} ms", out, shift))
         out = os.path.join(args.work, f"{name}_notiming.log")
         if not os.path.exists(out):
             r = run([sys.executable, os.path.join(tools, "drop_beam_timing.py"), log, out])
@@ -209,6 +229,8 @@ def main():
     p.add_argument("--work", default=None, help="directory for logs and results (default: a temporary one)")
     p.add_argument("--jobs", type=int, default=1, help="recordings at once (default 1)")
     p.add_argument("--reuse", action="store_true", help="reuse results already in --work")
+    p.add_argument("--before-build", default=None,
+                   help="also run `solve --time-offset` of the agvcal in this directory (a column 'before')")
     p.add_argument("--keep-logs", action="store_true", help="keep the simulated logs")
     p.add_argument("--drives", default=",".join(DRIVES), help="comma-separated drives (default all three)")
     p.add_argument("--offsets-ms", default=",".join(map(str, OFFSETS_MS)), help="comma-separated offsets in ms")
@@ -216,11 +238,14 @@ def main():
     p.add_argument("--real", action="store_true", help="the real recordings with injected shifts instead")
     p.add_argument("--datasets", default=None,
                    help="directory of imported recordings NAME.log with NAME.yaml (scripts/import-datasets.sh)")
+    p.add_argument("--shifts-ms", default=",".join(map(str, REAL_SHIFTS_MS)),
+                   help="--real: comma-separated SCAN stamp shifts in ms (default 37,120)")
     p.add_argument("--names", default=None, help="comma-separated recordings of --datasets (default: all)")
     args = p.parse_args()
     args.drives = args.drives.split(",")
     args.offsets_ms = [float(x) if "." in x else int(x) for x in args.offsets_ms.split(",")]
     args.names = args.names.split(",") if args.names else None
+    args.shifts_ms = [int(x) for x in args.shifts_ms.split(",")]
     if args.work is None:
         import tempfile
         args.work = tempfile.mkdtemp(prefix="time_offset_matrix_")
