@@ -1536,16 +1536,11 @@ void ReadMotions(const RobotDescription& robot, const std::string& log_path,
     for (int i = 0; i < scan->size(); ++i)
       if (scan->HasReturn(i)) sum += i * scan->time_increment, ++returns;
     leads.push_back(returns > 0 ? sum / returns : 0.0);
-    scan->utime -= shift_us;
-  };
-  auto restore = [shift_us](std::vector<SensorMotion> motions) {
-    for (SensorMotion& m : motions) m.utime_start += shift_us, m.utime_end += shift_us;
-    return motions;
   };
   const CalibrationData cal = ReadCalibrationData(robot, log_path, out.source, progress,
-                                                  std::function<void(LaserScan*)>(check_scan));
+                                                  std::function<void(LaserScan*)>(check_scan), shift_us);
   out.wheels = cal.wheels();
-  out.motions = restore(cal.motions());
+  out.motions = cal.motions();
   out.deskew_robot = robot;
   out.deskew_offset_s = shift_us * 1e-6;
   out.deskew_lead_s = 0.0;
@@ -1562,11 +1557,13 @@ void ReadMotions(const RobotDescription& robot, const std::string& log_path,
     }
     out.scan_period_s = scan_time;
     if (progress) progress("scans declare no beam timing: matching again with beams spread over the scan");
-    const CalibrationData spread = ReadCalibrationData(robot, log_path, out.source, nullptr, [&](LaserScan* scan) {
-      if (scan->size() > 1) scan->time_increment = scan_time / scan->size();
-      scan->utime -= shift_us;
-    });
-    out.motions_spread = restore(spread.motions());
+    const CalibrationData spread = ReadCalibrationData(
+        robot, log_path, out.source, nullptr,
+        [&](LaserScan* scan) {
+          if (scan->size() > 1) scan->time_increment = scan_time / scan->size();
+        },
+        shift_us);
+    out.motions_spread = spread.motions();
   }
 }
 
