@@ -113,6 +113,11 @@ def sim_case(args, drive, offset_ms, with_second):
         text += "  " + SECOND[1] + "\n"
     sim, log = os.path.join(args.work, tag + ".yaml"), os.path.join(args.work, tag + ".log")
     cache = os.path.join(args.work, tag + ".result.json")
+    if args.table_only:
+        if not os.path.exists(cache):
+            return tag, {"solve_error": "not run", "diag_error": "not run"}
+        with open(cache) as f:
+            return tag, json.load(f)
     if not (args.reuse and os.path.exists(cache)):
         with open(sim, "w") as f:
             f.write(text)
@@ -231,6 +236,8 @@ def main():
     p.add_argument("--reuse", action="store_true", help="reuse results already in --work")
     p.add_argument("--before-build", default=None,
                    help="also run `solve --time-offset` of the agvcal in this directory (a column 'before')")
+    p.add_argument("--table-only", action="store_true",
+                   help="print the table of the results already in --work; run nothing")
     p.add_argument("--keep-logs", action="store_true", help="keep the simulated logs")
     p.add_argument("--drives", default=",".join(DRIVES), help="comma-separated drives (default all three)")
     p.add_argument("--offsets-ms", default=",".join(map(str, OFFSETS_MS)), help="comma-separated offsets in ms")
