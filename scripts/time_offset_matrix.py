@@ -155,7 +155,7 @@ def sim_matrix(args):
         b = ""
         if args.before_build:
             b = (r.get("solve_before_error") or ms(r.get("solve_before"))) + \
-                ("" if within(r.get("solve_before"), truth) else " (NO)") + " | "
+                ("" if "solve_before" not in r or within(r["solve_before"], truth) else " (NO)") + " | "
         print(f"| {drive} | {SECOND[0] + ' 0.004' if s else '-'} | {o} ms | {b}"
               f"{r.get('solve_error') or ms(r.get('solve'), r.get('solve_std'))} | "
               f"{r.get('diag_error') or ms(r.get('diag'), r.get('diag_std')) + dstat} | "
