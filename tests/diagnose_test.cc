@@ -109,29 +109,43 @@ TEST(Diagnose, FiveMillisecondOffsetIsNamedAloneNotAsSlip) {
   EXPECT_NEAR(e->params.at("offset_s").value, 0.005, 0.0005);
 }
 
+// `solve --time-offset` and `diagnose` on one simulated differential-drive recording with a time
+// offset: each within 10 % of the truth and of each other, diagnose naming the offset alone.
+DiagnoseReport ExpectOffsetBySolveAndDiagnose(double offset_s) {
+  SimConfig c = Sim("diff_robot", 1);
+  c.effects.time_offset_s = offset_s;
+  const SimLog log(c);
+  SolveLogOptions so;
+  so.calibration.estimate_time_offset = true;
+  const CalibrationResult solved = SolveLog(c.robot, log.path(), so);
+  EXPECT_TRUE(solved.time_offset.has_value());
+  const double by_solve = solved.time_offset ? solved.time_offset->value : 0.0;
+  EXPECT_NEAR(by_solve, offset_s, 0.1 * offset_s);
+  const DiagnoseReport r = DiagnoseLog(c.robot, log.path(), DiagnoseOptions{});
+  EXPECT_EQ(Named(r), "time_offset ") << DiagnoseSummaryText(r);
+  if (const FoundEffect* e = Find(r, "time_offset")) {
+    const double by_diagnose = e->params.at("offset_s").value;
+    EXPECT_NEAR(by_diagnose, offset_s, 0.1 * offset_s);
+    EXPECT_NEAR(by_diagnose, by_solve, 0.1 * std::abs(by_solve));
+  }
+  return r;
+}
+
 // Issue 16: offsets of 10-50 ms, where real robots are, fell in a hole: `solve --time-offset`
 // found 0.65 ms (100 outliers) for 18 ms on this recording, while diagnose found 18 ms. Both
 // now start from the one global search (calibrate/time_offset_search.h): each within 10 % of
 // the truth, and within 10 % of each other.
 TEST(Diagnose, EighteenMillisecondOffsetFoundByDiagnoseAndSolveAlike) {
-  SimConfig c = Sim("diff_robot", 1);
-  c.effects.time_offset_s = 0.018;
-  const SimLog log(c);
-  SolveLogOptions so;
-  so.calibration.estimate_time_offset = true;
-  const CalibrationResult solved = SolveLog(c.robot, log.path(), so);
-  ASSERT_TRUE(solved.time_offset.has_value());
-  const double by_solve = solved.time_offset->value;
-  EXPECT_NEAR(by_solve, 0.018, 0.0018);
-  const DiagnoseReport r = DiagnoseLog(c.robot, log.path(), DiagnoseOptions{});
-  const FoundEffect* e = Find(r, "time_offset");
-  ASSERT_NE(e, nullptr) << "named: " << Named(r) << "\n" << DiagnoseSummaryText(r);
-  const double by_diagnose = e->params.at("offset_s").value;
-  EXPECT_NEAR(by_diagnose, 0.018, 0.0018);
-  EXPECT_NEAR(by_diagnose, by_solve, 0.1 * std::abs(by_solve));
+  const DiagnoseReport r = ExpectOffsetBySolveAndDiagnose(0.018);
   // The share set aside is reported with its correlation to the motion.
   EXPECT_LT(r.outlier_share, 0.05);
 }
+
+// Issue 16: `solve --time-offset` found 1.30 ms for 1 ms on this recording (diagnose 1.03): the
+// matcher places a de-skewed scan at its mean beam time (25 ms after its stamp), and the
+// nominal de-skew model's turn-rate error (1.3 %) over that lead read as +0.3 ms of offset.
+// Solve now matches again with the calibrated model on the wheel clock, as diagnose does.
+TEST(Diagnose, OneMillisecondOffsetFoundBySolveAndDiagnoseAlike) { ExpectOffsetBySolveAndDiagnose(0.001); }
 
 TEST(Diagnose, CleanForkliftHasNoEffect) {
   const DiagnoseReport r = DiagnoseSim(Sim("forklift", 11));

@@ -44,7 +44,8 @@ time offset. Prints a summary; RESULT.json follows spec/cli.md.
                              gyro scale (without it the scale stays at imu.gyro_scale)
   --time-offset              also estimate the lidar-to-wheel time offset (within +-0.5 s:
                              a global search, then the joint fit; the same estimate
-                             agvcal diagnose starts from)
+                             agvcal diagnose starts from); the scans are then matched
+                             again, de-skewed with the calibrated model and offset
   --fit-fraction F           fit on the first fraction F of the recording, and compare the
                              calibrated with the nominal model's odometry on the rest:
                              windows of equal path, the longest that give N windows

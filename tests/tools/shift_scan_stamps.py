@@ -10,6 +10,19 @@ import struct
 import sys
 
 
+def channel_events(data, src, channel):
+    """(event offset, message body offset) of every event on `channel` of an lcm-logger
+    recording's bytes; exits naming `src` and the byte where the framing breaks."""
+    pos = 0
+    while pos + 28 <= len(data):
+        sync, _, _, channel_len, data_len = struct.unpack('>IqqII', data[pos:pos + 28])
+        if sync != 0xEDA1DA01:
+            sys.exit(f'{src}: byte {pos}: not an lcm-logger event (sync word {sync:#x})')
+        if data[pos + 28:pos + 28 + channel_len].decode() == channel:
+            yield pos, pos + 28 + channel_len
+        pos += 28 + channel_len + data_len
+
+
 def main():
     if len(sys.argv) < 4 or sys.argv[1] in ('-h', '--help'):
         print(__doc__)
@@ -18,19 +31,13 @@ def main():
     channel = sys.argv[4] if len(sys.argv) > 4 else 'SCAN'
     shift_us = int(round(offset_s * 1e6))
     data = bytearray(open(src, 'rb').read())
-    pos, shifted = 0, 0
-    while pos + 28 <= len(data):
-        sync, _, stamp, channel_len, data_len = struct.unpack('>IqqII', data[pos:pos + 28])
-        if sync != 0xEDA1DA01:
-            sys.exit(f'{src}: byte {pos}: not an lcm-logger event (sync word {sync:#x})')
-        name = data[pos + 28:pos + 28 + channel_len].decode()
-        if name == channel:
-            struct.pack_into('>q', data, pos + 12, stamp + shift_us)
-            body = pos + 28 + channel_len
-            (utime,) = struct.unpack_from('>q', data, body + 8)
-            struct.pack_into('>q', data, body + 8, utime + shift_us)
-            shifted += 1
-        pos += 28 + channel_len + data_len
+    shifted = 0
+    for event, body in channel_events(data, src, channel):
+        (stamp,) = struct.unpack_from('>q', data, event + 12)
+        struct.pack_into('>q', data, event + 12, stamp + shift_us)
+        (utime,) = struct.unpack_from('>q', data, body + 8)
+        struct.pack_into('>q', data, body + 8, utime + shift_us)
+        shifted += 1
     if shifted == 0:
         sys.exit(f'{src}: no message on {channel}')
     open(dst, 'wb').write(data)

@@ -1,5 +1,6 @@
 #include "calib/calibrate/recording_input.h"
 
+#include <cmath>
 #include <optional>
 
 #include "calib/core/errors.h"
@@ -99,13 +100,22 @@ CalibrationData ReadCalibrationData(const RobotDescription& robot, const std::st
 CalibrationData ReadCalibrationData(const RobotDescription& robot, const std::string& log_path,
                                     MotionSource source,
                                     const std::function<void(const std::string&)>& progress,
-                                    const std::function<void(LaserScan*)>& adjust_scan) {
+                                    const std::function<void(LaserScan*)>& adjust_scan,
+                                    int64_t deskew_shift_us) {
   CalibrationData data(robot);
   CalibrationStreamHandlers handlers;
-  handlers.adjust_scan = adjust_scan;
+  if (adjust_scan || deskew_shift_us != 0) {
+    handlers.adjust_scan = [&](LaserScan* scan) {
+      if (adjust_scan) adjust_scan(scan);
+      scan->utime -= deskew_shift_us;
+    };
+  }
   handlers.progress = progress;
   handlers.wheels = [&](const WheelSample& sample) { data.AddWheels(sample); };
-  handlers.motion = [&](const SensorMotion& m) { data.AddMotion(m); };
+  handlers.motion = [&](SensorMotion m) {
+    m.utime_start += deskew_shift_us, m.utime_end += deskew_shift_us;
+    data.AddMotion(m);
+  };
   handlers.dropped = [&](const std::string& note) { data.AddDropped(note); };
   if (source == MotionSource::kPose) handlers.pose = [&](const StampedPose& p) { data.AddPose(p); };
   if (source == MotionSource::kImu) handlers.imu = [&](const ImuSample& s) { data.AddImu(s); };
@@ -134,6 +144,14 @@ CalibrationResult SolveLog(const RobotDescription& robot, const std::string& log
       source == MotionSource::kImu
           ? ToCalibrationResult(robot, CalibrateWithImu(robot, data.wheels(), data.imu(), options.imu, log_path))
           : Calibrate(robot, data.wheels(), data.motions(), source, options.calibration, log_path);
+  if (source == MotionSource::kLidar2d && options.calibration.estimate_time_offset && result.time_offset) {
+    // Match again, de-skewed with the calibrated model on the wheel clock (recording_input.h).
+    if (options.progress) options.progress("matching the scans again, de-skewed with the calibrated model and offset");
+    const CalibrationData again =
+        ReadCalibrationData(Calibrated(robot, result), log_path, source, nullptr, nullptr,
+                            std::llround(result.time_offset->value * 1e6));
+    result = Calibrate(robot, again.wheels(), again.motions(), source, options.calibration, log_path);
+  }
   result.input_dropped = data.dropped_input();
   result.input_notes = data.drop_notes();
   return result;

@@ -5,6 +5,7 @@
 // scan matcher pipeline, CalibrationData, Calibrate), fed from a log in its
 // order, so a replay through the live group gives the same numbers.
 
+#include <cstdint>
 #include <functional>
 #include <optional>
 #include <string>
@@ -58,13 +59,22 @@ CalibrationData ReadCalibrationData(const RobotDescription& robot, const std::st
                                     const std::function<void(const std::string&)>& progress);
 
 // The same, with each scan passed through `adjust_scan` before it is matched
-// (the diagnosis re-matches with other beam timing; may be empty).
+// (the diagnosis re-matches with other beam timing; may be empty), and matched on the wheel
+// clock: stamped `deskew_shift_us` earlier, so it is de-skewed with the wheel data of the time
+// its beams were taken under a time offset of that size; the motions get the recorded stamps
+// back, so the offset stays in the data without the de-skew error it causes.
 CalibrationData ReadCalibrationData(const RobotDescription& robot, const std::string& log_path,
                                     MotionSource source,
                                     const std::function<void(const std::string&)>& progress,
-                                    const std::function<void(LaserScan*)>& adjust_scan);
+                                    const std::function<void(LaserScan*)>& adjust_scan,
+                                    int64_t deskew_shift_us = 0);
 
-// `agvcal solve`: the motion source (ChooseMotionSource), the data, the calibration.
+// `agvcal solve`: the motion source (ChooseMotionSource), the data, the calibration. With the
+// time offset (options.calibration.estimate_time_offset) and scans, the scans are matched a
+// second time, de-skewed with the calibrated model on the wheel clock (the offset found), and
+// calibrated again, as `agvcal diagnose` does: the matcher places a scan at its mean beam time,
+// so the nominal de-skew model's error over that lead (its relative turn-rate error times the
+// lead) otherwise reads as a time offset, +0.3 ms on the simulated differential drive.
 CalibrationResult SolveLog(const RobotDescription& robot, const std::string& log_path,
                            const SolveLogOptions& options);
 
