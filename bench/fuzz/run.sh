@@ -3,6 +3,7 @@
 # each for SECONDS, and prints per target the executions, their rate and the crashes found.
 #   bench/fuzz/run.sh TARGET|all SECONDS
 #   bench/fuzz/run.sh --ci          all targets for 4 s each on the committed corpus (ctest fuzz_smoke)
+#   AGVCAL_FUZZ_RUNS=N bench/fuzz/run.sh TARGET|all 0   stop each target after N executions instead
 # Builds build-fuzz/ first (clang++, -DAGVCAL_FUZZ=ON; AGVCAL_FUZZ_BUILD overrides the directory).
 # New inputs go to build-fuzz/corpus/TARGET (the committed bench/fuzz/corpus/TARGET is only read),
 # a crashing input to build-fuzz/artifacts/TARGET/. Exit 0 only when no target crashed.
@@ -11,7 +12,7 @@ here=$(cd "$(dirname "$0")/../.." && pwd)
 build=${AGVCAL_FUZZ_BUILD:-$here/build-fuzz}
 targets_all=(recording messages robot_file sim_config pcd kitti carmen mines lego optiodom pose_csv
              candump sick_cola bridge_config)
-usage() { sed -n '2,8p' "$0" | sed 's/^# \{0,1\}//'; }
+usage() { sed -n '2,9p' "$0" | sed 's/^# \{0,1\}//'; }
 ci=0
 case "${1:-}" in
   -h|--help) usage; exit 0 ;;
@@ -44,7 +45,8 @@ for t in "${targets[@]}"; do
   mkdir -p "$work" "$artifacts"
   log=$build/fuzz_$t.log
   status=0
-  "$build/bench/fuzz/fuzz_$t" -max_total_time="$seconds" -timeout=10 -rss_limit_mb=2048 \
+  if [ -n "${AGVCAL_FUZZ_RUNS:-}" ]; then limit=-runs=$AGVCAL_FUZZ_RUNS; else limit=-max_total_time=$seconds; fi
+  "$build/bench/fuzz/fuzz_$t" "$limit" -timeout=10 -rss_limit_mb=2048 \
       -max_len=262144 -print_final_stats=1 -artifact_prefix="$artifacts" \
       "$work" "$here/bench/fuzz/corpus/$t" > "$log" 2>&1 || status=$?
   [ $ci = 1 ] && rm -rf "$work"
