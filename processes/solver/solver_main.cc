@@ -6,15 +6,21 @@
 // recording ends with the numbers `agvcal solve` gives for it. With
 // --catch-up (as scripts/agvcal-group runs it) a solver restarted mid-run first
 // takes what it missed from the group's recording, and ends with the same numbers.
+// With --time-offset the final solve, as `agvcal solve --time-offset`'s, matches the
+// scans a second time, de-skewed with the calibrated model: the solver holds only the
+// motions, so it reads the scans again from that recording (calib::SolveAgainDeskewed).
 #include <lcm/lcm-cpp.hpp>
 #include <malloc.h>
 
 #include <chrono>
+#include <functional>
 #include <future>
 #include <iostream>
+#include <thread>
 #include <vector>
 
 #include "calib/calibrate/calibration_data.h"
+#include "calib/calibrate/recording_input.h"
 #include "calib/calibrate/result_files.h"
 #include "calib/core/errors.h"
 #include "calib/io/message_source.h"
@@ -34,7 +40,10 @@ CALIB_ESTIMATE (estimates, sigmas, observability) after every N new motions and
 CALIB_RESIDUALS (per-interval residuals), and HEARTBEAT.
   --source lidar2d|pose   the sensor (default lidar2d if the robot file has one, else pose)
   --every N               re-solve after N new motions (default 200)
-  --time-offset           also estimate the lidar-to-wheel time offset
+  --time-offset           also estimate the lidar-to-wheel time offset; with SCAN_MATCH and
+                          --catch-up, the final solve then matches the recording's scans a
+                          second time, de-skewed with the calibrated model, as `agvcal solve
+                          --time-offset` does (without --catch-up: once, and said on stderr)
   --out RESULT.json       on exit, solve on all data and write the result (spec/cli.md)
   --catch-up RECORDING    on start, first read the inputs published so far from the
                           group's recording (lcm-logger's file, still being written),
@@ -111,22 +120,64 @@ class Solver {
     MaybeSolve();
   }
 
-  // The final solve on everything collected (after an intermediate one still running);
-  // publishes the estimate and the new residuals. Throws what Calibrate throws.
+  // The final solve's second pass, as `agvcal solve`'s (calib::SolvesAgainDeskewed), reads the
+  // scans from `recording` (the group's); `flush` is called before each reading.
+  void set_second_pass(std::string recording, std::function<void()> flush) {
+    recording_ = std::move(recording);
+    flush_ = std::move(flush);
+  }
+
+  // The final solve on everything collected (after an intermediate one still running), and
+  // its second pass (set_second_pass); publishes the estimate and the new residuals. Throws
+  // what Calibrate throws.
   calib::CalibrationResult SolveFinal() {
     holding_solves_ = true;  // no new one
     Poll(true /* wait */);
     calib::CalibrationResult result = Calibrate();
+    if (calib::SolvesAgainDeskewed(source_, options_, result)) result = SolveAgain(result);
     Publish(result, true);
     return result;
   }
 
  private:
   bool solving() const { return running_.valid(); }
+  std::string origin() const { return "live " + std::string(calib::MotionSourceName(source_)); }
 
   calib::CalibrationResult Calibrate() const {
-    return calib::Calibrate(robot_, data_.wheels(), data_.motions(), source_, options_,
-                            "live " + std::string(calib::MotionSourceName(source_)));
+    return calib::Calibrate(robot_, data_.wheels(), data_.motions(), source_, options_, origin());
+  }
+
+  // The second pass on the recording's scans. lcm-logger writes the recording behind the bus
+  // (it flushes when a message comes 100 ms after its last flush): when the recording holds
+  // fewer wheel states than this solver received, it is read again after a flush, up to three
+  // times. A recording that cannot be read leaves the first pass's result, said on stderr.
+  calib::CalibrationResult SolveAgain(const calib::CalibrationResult& first) {
+    if (recording_.empty()) {
+      std::cerr << "agvcal-solver: no recording (--catch-up) to match the scans again from: the time offset "
+                   "is the first pass's, not `agvcal solve --time-offset`'s\n";
+      return first;
+    }
+    std::cerr << "agvcal-solver: matching the scans of " << recording_
+              << " again, de-skewed with the calibrated model and offset\n";
+    for (int attempt = 1;; ++attempt) {
+      if (flush_) flush_();
+      std::size_t wheel_states = 0;
+      calib::CalibrationResult result = first;
+      try {
+        result = calib::SolveAgainDeskewed(robot_, recording_, first, options_, origin(), &wheel_states);
+      } catch (const calib::InputError& e) {
+        std::cerr << "agvcal-solver: cannot match the scans again (" << e.what()
+                  << "): the time offset is the first pass's\n";
+        return first;
+      }
+      if (wheel_states >= data_.wheels().size() || attempt == 3) {
+        if (wheel_states != data_.wheels().size()) {
+          std::cerr << "agvcal-solver: the recording holds " << wheel_states << " wheel states, the solver received "
+                    << data_.wheels().size() << ": the second pass is on the recording's\n";
+        }
+        return result;
+      }
+    }
   }
 
   // Starts an intermediate solve on a worker thread once `every_` new motions have come.
@@ -170,6 +221,8 @@ class Solver {
   std::vector<calib::WheelSample> held_wheels_;     // received while it runs
   std::vector<calib::StampedPose> held_poses_;
   std::vector<calib::SensorMotion> held_motions_;
+  std::string recording_;        // the second pass's scans (set_second_pass)
+  std::function<void()> flush_;
 };
 
 int Run(int argc, char** argv) {
@@ -199,6 +252,16 @@ int Run(int argc, char** argv) {
   Heartbeat heartbeat(&bus.lcm(), "solver");
   bus.ReportOn(&heartbeat);
   InstallStopHandlers();
+  // The second pass's reading waits for lcm-logger to write what the solver received: two
+  // heartbeats 150 ms apart make it flush (it does when a message comes 100 ms after its last
+  // flush), and 250 ms more let it write.
+  solver.set_second_pass(args.Get("--catch-up", ""), [&heartbeat] {
+    using namespace std::chrono_literals;
+    heartbeat.Beat("final solve: matching the recorded scans again", true);
+    std::this_thread::sleep_for(150ms);
+    heartbeat.Beat("final solve: matching the recorded scans again", true);
+    std::this_thread::sleep_for(250ms);
+  });
   if (args.Has("--catch-up")) {
     solver.set_holding_solves(true);
     bus.CatchUp(args.Get("--catch-up", ""), &heartbeat);

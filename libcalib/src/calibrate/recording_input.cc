@@ -2,6 +2,7 @@
 
 #include <cmath>
 #include <optional>
+#include <stdexcept>
 
 #include "calib/core/errors.h"
 #include "calib/io/log_summary.h"
@@ -47,14 +48,15 @@ MotionSource ChooseMotionSource(const RobotDescription& robot, const std::string
 }
 
 void ReadCalibrationStream(const RobotDescription& robot, const std::string& log_path,
-                           bool match_scans, const CalibrationStreamHandlers& handlers) {
+                           bool match_scans, const CalibrationStreamHandlers& handlers,
+                           RecordingSource::Mode mode) {
   std::optional<ScanMatchPipeline> matcher;
   if (match_scans) matcher.emplace(robot);
   auto take_matches = [&]() {
     for (const SensorMotion& m : matcher->TakeResults())
       if (handlers.motion) handlers.motion(m);
   };
-  RecordingSource source(log_path);
+  RecordingSource source(log_path, mode);
   SubscribeWheels(&source, robot, [&](const WheelSample& sample) {
     if (handlers.wheels) handlers.wheels(sample);
     if (matcher) {
@@ -75,6 +77,7 @@ void ReadCalibrationStream(const RobotDescription& robot, const std::string& log
   while (source.HandleNext(0)) {
     if (handlers.event) handlers.event();
   }
+  source.Finish();  // a growing log's reader does not end by itself (done at the end of a complete one)
   if (matcher) {
     matcher->Finish();
     take_matches();
@@ -101,7 +104,7 @@ CalibrationData ReadCalibrationData(const RobotDescription& robot, const std::st
                                     MotionSource source,
                                     const std::function<void(const std::string&)>& progress,
                                     const std::function<void(LaserScan*)>& adjust_scan,
-                                    int64_t deskew_shift_us) {
+                                    int64_t deskew_shift_us, RecordingSource::Mode mode) {
   CalibrationData data(robot);
   CalibrationStreamHandlers handlers;
   if (adjust_scan || deskew_shift_us != 0) {
@@ -126,8 +129,24 @@ CalibrationData ReadCalibrationData(const RobotDescription& robot, const std::st
                " motions");
     }
   };
-  ReadCalibrationStream(robot, log_path, source == MotionSource::kLidar2d, handlers);
+  ReadCalibrationStream(robot, log_path, source == MotionSource::kLidar2d, handlers, mode);
   return data;
+}
+
+bool SolvesAgainDeskewed(MotionSource source, const CalibrationOptions& options, const CalibrationResult& first) {
+  return source == MotionSource::kLidar2d && options.estimate_time_offset && first.time_offset.has_value();
+}
+
+CalibrationResult SolveAgainDeskewed(const RobotDescription& robot, const std::string& log_path,
+                                     const CalibrationResult& first, const CalibrationOptions& options,
+                                     const std::string& origin, std::size_t* wheel_states) {
+  if (!first.time_offset) throw std::logic_error("SolveAgainDeskewed: the first pass has no time offset");
+  const RobotDescription deskew = Calibrated(robot, first);
+  const CalibrationData again =
+      ReadCalibrationData(deskew, log_path, MotionSource::kLidar2d, nullptr, nullptr,
+                          std::llround(first.time_offset->value * 1e6), RecordingSource::Mode::kGrowing);
+  if (wheel_states) *wheel_states = again.wheels().size();
+  return Calibrate(robot, again.wheels(), again.motions(), MotionSource::kLidar2d, options, origin);
 }
 
 CalibrationResult SolveLog(const RobotDescription& robot, const std::string& log_path,
@@ -144,13 +163,10 @@ CalibrationResult SolveLog(const RobotDescription& robot, const std::string& log
       source == MotionSource::kImu
           ? ToCalibrationResult(robot, CalibrateWithImu(robot, data.wheels(), data.imu(), options.imu, log_path))
           : Calibrate(robot, data.wheels(), data.motions(), source, options.calibration, log_path);
-  if (source == MotionSource::kLidar2d && options.calibration.estimate_time_offset && result.time_offset) {
+  if (SolvesAgainDeskewed(source, options.calibration, result)) {
     // Match again, de-skewed with the calibrated model on the wheel clock (recording_input.h).
     if (options.progress) options.progress("matching the scans again, de-skewed with the calibrated model and offset");
-    const CalibrationData again =
-        ReadCalibrationData(Calibrated(robot, result), log_path, source, nullptr, nullptr,
-                            std::llround(result.time_offset->value * 1e6));
-    result = Calibrate(robot, again.wheels(), again.motions(), source, options.calibration, log_path);
+    result = SolveAgainDeskewed(robot, log_path, result, options.calibration, log_path);
   }
   result.input_dropped = data.dropped_input();
   result.input_notes = data.drop_notes();

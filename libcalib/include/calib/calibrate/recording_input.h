@@ -5,6 +5,7 @@
 // scan matcher pipeline, CalibrationData, Calibrate), fed from a log in its
 // order, so a replay through the live group gives the same numbers.
 
+#include <cstddef>
 #include <cstdint>
 #include <functional>
 #include <optional>
@@ -16,6 +17,7 @@
 #include "calib/core/laser_scan.h"
 #include "calib/core/robot.h"
 #include "calib/core/sensor_data.h"
+#include "calib/io/message_source.h"
 
 namespace calib {
 
@@ -49,9 +51,11 @@ struct CalibrationStreamHandlers {
 // Feeds the log's WHEELS, scan matches (when `match_scans`: the robot file's 2D lidar channel
 // through ScanMatchPipeline, as the live scan matcher), POSE and IMU to `handlers`, in log order.
 // Throws InputError naming the log and the event for a message that does not decode or
-// convert (calib/io/message_source.h).
+// convert (calib/io/message_source.h). `mode` kGrowing: a log still being written, read to
+// its last complete event (a complete log reads the same either way).
 void ReadCalibrationStream(const RobotDescription& robot, const std::string& log_path,
-                           bool match_scans, const CalibrationStreamHandlers& handlers);
+                           bool match_scans, const CalibrationStreamHandlers& handlers,
+                           RecordingSource::Mode mode = RecordingSource::Mode::kComplete);
 
 // Reads WHEELS and the sensor's channel from the log; scans are scan-matched.
 CalibrationData ReadCalibrationData(const RobotDescription& robot, const std::string& log_path,
@@ -67,14 +71,29 @@ CalibrationData ReadCalibrationData(const RobotDescription& robot, const std::st
                                     MotionSource source,
                                     const std::function<void(const std::string&)>& progress,
                                     const std::function<void(LaserScan*)>& adjust_scan,
-                                    int64_t deskew_shift_us = 0);
+                                    int64_t deskew_shift_us = 0,
+                                    RecordingSource::Mode mode = RecordingSource::Mode::kComplete);
+
+// The second pass of `solve --time-offset` (SolveLog), given the first pass's result `first` (with
+// its time offset): the scans of `log_path` matched again, de-skewed with `first`'s calibrated
+// model on the wheel clock (ReadCalibrationData's deskew_shift_us: the offset found), and
+// calibrated again with `options`; `origin` names the input in errors. The live solver runs it on
+// the group's recording at its final solve (docs/live.md), so `log_path` may still be being
+// written: it is read to its last complete event. `wheel_states`, if given, receives the number
+// of wheel states read (to compare with those the first pass had).
+// Whether `solve` runs that second pass after the first pass `first`: scans, with the time offset.
+bool SolvesAgainDeskewed(MotionSource source, const CalibrationOptions& options, const CalibrationResult& first);
+CalibrationResult SolveAgainDeskewed(const RobotDescription& robot, const std::string& log_path,
+                                     const CalibrationResult& first, const CalibrationOptions& options,
+                                     const std::string& origin, std::size_t* wheel_states = nullptr);
 
 // `agvcal solve`: the motion source (ChooseMotionSource), the data, the calibration. With the
 // time offset (options.calibration.estimate_time_offset) and scans, the scans are matched a
 // second time, de-skewed with the calibrated model on the wheel clock (the offset found), and
 // calibrated again, as `agvcal diagnose` does: the matcher places a scan at its mean beam time,
 // so the nominal de-skew model's error over that lead (its relative turn-rate error times the
-// lead) otherwise reads as a time offset, +0.3 ms on the simulated differential drive.
+// lead) otherwise reads as a time offset, +0.3 ms on the simulated differential drive. The second
+// pass is SolveAgainDeskewed, which the live agvcal-solver --time-offset runs too.
 CalibrationResult SolveLog(const RobotDescription& robot, const std::string& log_path,
                            const SolveLogOptions& options);
 
