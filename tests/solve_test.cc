@@ -8,7 +8,10 @@
 
 #include <cmath>
 #include <cstdio>
+#include <fstream>
+#include <iterator>
 #include <string>
+#include <vector>
 
 #include "calib/calibrate/recording_input.h"
 #include "calib/core/errors.h"
@@ -112,6 +115,42 @@ TEST(Solve, MissingChannelNamesTheLog) {
     EXPECT_EQ(e.file(), log.path());
     EXPECT_NE(e.problem().find("neither scans"), std::string::npos) << e.what();
   }
+}
+
+// The live solver's final solve with --time-offset runs SolveLog's second pass on the group's
+// recording, which lcm-logger is still writing (processes/solver, docs/live.md): on the recording
+// with part of an event at its end, from the first pass's result, it gives SolveLog's result.
+TEST(Solve, SecondPassOnARecordingStillBeingWrittenGivesSolveLogsResult) {
+  const RobotDescription robot = LoadRobotFile(Source("config/robots/diff_robot.yaml"));
+  const std::string log = Source("logs/diff_robot_demo.log");
+  SolveLogOptions options;
+  options.calibration.estimate_time_offset = true;
+  const CalibrationResult offline = SolveLog(robot, log, options);
+
+  std::ifstream in(log, std::ios::binary);
+  const std::vector<char> bytes((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>());
+  const std::string growing = ::testing::TempDir() + "growing_" + std::to_string(getpid()) + ".log";
+  {
+    std::ofstream out(growing, std::ios::binary | std::ios::trunc);
+    out.write(bytes.data(), static_cast<std::streamsize>(bytes.size()));
+    out.write(bytes.data(), 60);  // the first event's header and part of its body, again
+  }
+  EXPECT_THROW(ReadCalibrationData(robot, growing, MotionSource::kLidar2d, nullptr), InputError);
+
+  const CalibrationData data = ReadCalibrationData(robot, log, MotionSource::kLidar2d, nullptr);
+  const CalibrationResult first =
+      Calibrate(robot, data.wheels(), data.motions(), MotionSource::kLidar2d, options.calibration, log);
+  ASSERT_TRUE(SolvesAgainDeskewed(MotionSource::kLidar2d, options.calibration, first));
+  std::size_t wheel_states = 0;
+  const CalibrationResult live = SolveAgainDeskewed(robot, growing, first, options.calibration, log, &wheel_states);
+  std::remove(growing.c_str());
+  EXPECT_EQ(wheel_states, data.wheels().size());
+  ASSERT_TRUE(live.time_offset && offline.time_offset);
+  EXPECT_EQ(live.time_offset->value, offline.time_offset->value);
+  EXPECT_NE(live.time_offset->value, first.time_offset->value);  // the second pass changed it
+  for (const auto& [name, e] : offline.params) EXPECT_EQ(live.params.at(name).value, e.value) << name;
+  EXPECT_EQ(live.mount_yaw.value, offline.mount_yaw.value);
+  EXPECT_EQ(live.residual.intervals, offline.residual.intervals);
 }
 
 }  // namespace
