@@ -3,7 +3,7 @@
 # replayed at high speed through the live group, the memory of every process of the group sampled
 # from /proc, and the group's final RESULT.json compared with `agvcal solve` on the same recording.
 #
-#   bench/soak.sh [--minutes M] [--sim SIM.yaml] [--speed X] [--interval S] [--dir DIR]
+#   bench/soak.sh [--minutes M] [--sim SIM.yaml] [--speed X] [--interval S] [--dir DIR] [--time-offset]
 #
 #   --minutes M    robot time of the recording (default 60)
 #   --sim SIM      simulation config (default config/sims/forklift.yaml): its default trajectory
@@ -12,17 +12,19 @@
 #   --interval S   sampling period, wall seconds (default 1)
 #   --dir DIR      where the recording (kept and reused), the run directory, the offline result and
 #                  the samples (samples.csv) go (default /tmp/agvcal-soak); keep it out of the repository
+#   --time-offset  solve with the time offset, offline and live (agvcal-solver --time-offset: its
+#                  final solve matches the recording's scans a second time)
 # Prints per process (the group's programs, restarted ones under one name), in MB: RSS after the
 # first minute of data, at the end of the data (the replay's last sample), the growth between
 # them, at its last sample (the solver: during its final solve), and the peak (VmHWM); then
 # whether RESULT.json equals the offline solve's.
 # Exit status: 0 the results are equal, 1 they differ or the group failed, 2 bad arguments.
 set -u
-usage() { sed -n '2,19p' "$0" | sed 's/^# \{0,1\}//'; }
+usage() { sed -n '2,21p' "$0" | sed 's/^# \{0,1\}//'; }
 die() { echo "soak.sh: $*" >&2; exit 2; }
 here=$(cd "$(dirname "$0")/.." && pwd)
 bin=${AGVCAL_BIN:-$here/build}
-minutes=60 sim=$here/config/sims/forklift.yaml speed=8 interval=1 dir=/tmp/agvcal-soak
+minutes=60 sim=$here/config/sims/forklift.yaml speed=8 interval=1 dir=/tmp/agvcal-soak offset=()
 while [ $# -gt 0 ]; do
   case "$1" in
     --minutes) minutes=${2:-}; shift 2 || die "--minutes needs a value" ;;
@@ -30,6 +32,7 @@ while [ $# -gt 0 ]; do
     --speed) speed=${2:-}; shift 2 || die "--speed needs a value" ;;
     --interval) interval=${2:-}; shift 2 || die "--interval needs a value" ;;
     --dir) dir=${2:-}; shift 2 || die "--dir needs a value" ;;
+    --time-offset) offset=(--time-offset); shift ;;
     -h|--help) usage; exit 0 ;;
     *) die "unknown argument '$1' (see --help)" ;;
   esac
@@ -41,21 +44,22 @@ sim=$(cd "$(dirname "$sim")" && pwd)/$(basename "$sim")
 cd "$here" || exit 2
 name=$(basename "$sim" .yaml)-${minutes}min
 log=$dir/$name.log
+result=$name${offset:+-offset}  # the results' names: the recording is the same either way
 robot=$("$bin/agvcal-sim" "$sim" --print-robot) || die "$sim: no robot file"
 if [ ! -s "$log" ]; then
   "$bin/bench/agvcal-bench-long-recording" "$sim" "$minutes" "$log" || exit 1
 fi
 start=$(date +%s)
-"$bin/agvcal" solve "$robot" "$log" --quiet --out "$dir/$name.offline.json" >/dev/null || exit 1
+"$bin/agvcal" solve "$robot" "$log" "${offset[@]}" --quiet --out "$dir/$result.offline.json" >/dev/null || exit 1
 echo "offline agvcal solve: $(( $(date +%s) - start )) s"
 
-run=$dir/run-$name-$(date +%Y%m%d-%H%M%S)
+run=$dir/run-$result-$(date +%Y%m%d-%H%M%S)
 "$here/scripts/netns-run" "$here/scripts/agvcal-group" --replay "$log" --robot "$robot" --speed "$speed" \
-  --run-dir "$run" >"$run.out" 2>&1 &
+  --run-dir "$run" --solver-args "${offset[*]}" >"$run.out" 2>&1 &
 group=$!
 # Samples every process under the group's supervisord: wall s since the group started, program
 # (argv[0]'s name; the player's shell wrapper counts as the player), pid, VmRSS and VmHWM in kB.
-python3 - "$run/supervisord.conf" "$group" "$interval" >"$dir/$name.samples.csv" <<'PY'
+python3 - "$run/supervisord.conf" "$group" "$interval" >"$dir/$result.samples.csv" <<'PY'
 import os, sys, time
 conf, group, interval = sys.argv[1], int(sys.argv[2]), float(sys.argv[3])
 t0 = time.time()
@@ -91,7 +95,7 @@ while os.path.exists(f"/proc/{group}"):
 PY
 wait "$group"; code=$?
 echo "group: exit $code after $(( $(date +%s) - start )) s (run directory $run)"
-python3 - "$dir/$name.samples.csv" "$speed" <<'PY'
+python3 - "$dir/$result.samples.csv" "$speed" <<'PY'
 import csv, sys
 rows = list(csv.DictReader(open(sys.argv[1])))
 speed = float(sys.argv[2])
@@ -109,7 +113,7 @@ for name in sorted({r["process"] for r in rows}):
     print(f"{name:<20}{first:>9.1f}{end:>12.1f}{end - first:>8.1f}{last:>9.1f}{peak:>9.1f}{pids:>5}")
 PY
 [ "$code" -eq 0 ] || { tail -5 "$run.out"; exit 1; }
-python3 - "$dir/$name.offline.json" "$run/RESULT.json" <<'PY'
+python3 - "$dir/$result.offline.json" "$run/RESULT.json" <<'PY'
 import json, sys
 offline, live = (json.load(open(p)) for p in sys.argv[1:3])
 differ = [k for k in sorted(set(offline) | set(live)) if offline.get(k) != live.get(k)]
