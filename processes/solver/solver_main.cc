@@ -149,8 +149,9 @@ class Solver {
 
   // The second pass on the recording's scans. lcm-logger writes the recording behind the bus
   // (it flushes when a message comes 100 ms after its last flush): when the recording holds
-  // fewer wheel states than this solver received, it is read again after a flush, up to three
-  // times. A recording that cannot be read leaves the first pass's result, said on stderr.
+  // fewer wheel states than this solver received, it is read once more, a second and a flush
+  // later (a pass on an hour of data takes half a minute). A recording that cannot be read
+  // leaves the first pass's result, said on stderr.
   calib::CalibrationResult SolveAgain(const calib::CalibrationResult& first) {
     if (recording_.empty()) {
       std::cerr << "agvcal-solver: no recording (--catch-up) to match the scans again from: the time offset "
@@ -160,6 +161,7 @@ class Solver {
     std::cerr << "agvcal-solver: matching the scans of " << recording_
               << " again, de-skewed with the calibrated model and offset\n";
     for (int attempt = 1;; ++attempt) {
+      if (attempt > 1) std::this_thread::sleep_for(std::chrono::seconds(1));
       if (flush_) flush_();
       std::size_t wheel_states = 0;
       calib::CalibrationResult result = first;
@@ -170,7 +172,7 @@ class Solver {
                   << "): the time offset is the first pass's\n";
         return first;
       }
-      if (wheel_states >= data_.wheels().size() || attempt == 3) {
+      if (wheel_states >= data_.wheels().size() || attempt == 2) {
         if (wheel_states != data_.wheels().size()) {
           std::cerr << "agvcal-solver: the recording holds " << wheel_states << " wheel states, the solver received "
                     << data_.wheels().size() << ": the second pass is on the recording's\n";
