@@ -141,10 +141,11 @@ TEST(Solve, SecondPassOnARecordingStillBeingWrittenGivesSolveLogsResult) {
   const CalibrationResult first =
       Calibrate(robot, data.wheels(), data.motions(), MotionSource::kLidar2d, options.calibration, log);
   ASSERT_TRUE(SolvesAgainDeskewed(MotionSource::kLidar2d, options.calibration, first));
-  std::size_t wheel_states = 0;
-  const CalibrationResult live = SolveAgainDeskewed(robot, growing, first, options.calibration, log, &wheel_states);
+  SecondPassInput read;
+  const CalibrationResult live = SolveAgainDeskewed(robot, growing, first, options.calibration, log, &read);
   std::remove(growing.c_str());
-  EXPECT_EQ(wheel_states, data.wheels().size());
+  EXPECT_EQ(read.wheel_states, data.wheels().size());
+  EXPECT_EQ(read.last_wheel_utime, data.wheels().last_utime());
   ASSERT_TRUE(live.time_offset && offline.time_offset);
   EXPECT_EQ(live.time_offset->value, offline.time_offset->value);
   EXPECT_NE(live.time_offset->value, first.time_offset->value);  // the second pass changed it

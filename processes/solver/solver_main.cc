@@ -148,10 +148,11 @@ class Solver {
   }
 
   // The second pass on the recording's scans. lcm-logger writes the recording behind the bus
-  // (it flushes when a message comes 100 ms after its last flush): when the recording holds
-  // fewer wheel states than this solver received, it is read once more, a second and a flush
-  // later (a pass on an hour of data takes half a minute). A recording that cannot be read
-  // leaves the first pass's result, said on stderr.
+  // (it flushes when a message comes 100 ms after its last flush): when the recording's wheel
+  // data end before this solver's, it is read once more, a second and a flush later (a pass on
+  // an hour of data takes half a minute). A recording that lacks wheel states the solver
+  // received (lcm-logger lost them on an overloaded machine), or that cannot be read, is said
+  // on stderr; the latter leaves the first pass's result.
   calib::CalibrationResult SolveAgain(const calib::CalibrationResult& first) {
     if (recording_.empty()) {
       std::cerr << "agvcal-solver: no recording (--catch-up) to match the scans again from: the time offset "
@@ -160,25 +161,26 @@ class Solver {
     }
     std::cerr << "agvcal-solver: matching the scans of " << recording_
               << " again, de-skewed with the calibrated model and offset\n";
+    const calib::WheelTrack& wheels = data_.wheels();
     for (int attempt = 1;; ++attempt) {
       if (attempt > 1) std::this_thread::sleep_for(std::chrono::seconds(1));
       if (flush_) flush_();
-      std::size_t wheel_states = 0;
+      calib::SecondPassInput read;
       calib::CalibrationResult result = first;
       try {
-        result = calib::SolveAgainDeskewed(robot_, recording_, first, options_, origin(), &wheel_states);
+        result = calib::SolveAgainDeskewed(robot_, recording_, first, options_, origin(), &read);
       } catch (const calib::InputError& e) {
         std::cerr << "agvcal-solver: cannot match the scans again (" << e.what()
                   << "): the time offset is the first pass's\n";
         return first;
       }
-      if (wheel_states >= data_.wheels().size() || attempt == 2) {
-        if (wheel_states != data_.wheels().size()) {
-          std::cerr << "agvcal-solver: the recording holds " << wheel_states << " wheel states, the solver received "
-                    << data_.wheels().size() << ": the second pass is on the recording's\n";
-        }
-        return result;
+      if (attempt == 1 && !wheels.empty() && read.last_wheel_utime < wheels.last_utime()) continue;
+      if (read.wheel_states != wheels.size()) {
+        std::cerr << "agvcal-solver: the recording holds " << read.wheel_states << " wheel states, the solver received "
+                  << wheels.size() << ": the second pass is on the recording's, so the result differs from `agvcal "
+                     "solve --time-offset`'s on the messages the group had\n";
       }
+      return result;
     }
   }
 

@@ -139,13 +139,16 @@ bool SolvesAgainDeskewed(MotionSource source, const CalibrationOptions& options,
 
 CalibrationResult SolveAgainDeskewed(const RobotDescription& robot, const std::string& log_path,
                                      const CalibrationResult& first, const CalibrationOptions& options,
-                                     const std::string& origin, std::size_t* wheel_states) {
+                                     const std::string& origin, SecondPassInput* read) {
   if (!first.time_offset) throw std::logic_error("SolveAgainDeskewed: the first pass has no time offset");
   const RobotDescription deskew = Calibrated(robot, first);
   const CalibrationData again =
       ReadCalibrationData(deskew, log_path, MotionSource::kLidar2d, nullptr, nullptr,
                           std::llround(first.time_offset->value * 1e6), RecordingSource::Mode::kGrowing);
-  if (wheel_states) *wheel_states = again.wheels().size();
+  if (read) {
+    read->wheel_states = again.wheels().size();
+    read->last_wheel_utime = again.wheels().empty() ? 0 : again.wheels().last_utime();
+  }
   return Calibrate(robot, again.wheels(), again.motions(), MotionSource::kLidar2d, options, origin);
 }
 

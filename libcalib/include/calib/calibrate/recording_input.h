@@ -74,18 +74,25 @@ CalibrationData ReadCalibrationData(const RobotDescription& robot, const std::st
                                     int64_t deskew_shift_us = 0,
                                     RecordingSource::Mode mode = RecordingSource::Mode::kComplete);
 
+// Whether `solve` runs a second pass (SolveAgainDeskewed) after the first pass `first`: on
+// scans, with the time offset.
+bool SolvesAgainDeskewed(MotionSource source, const CalibrationOptions& options, const CalibrationResult& first);
+
+// What of the wheel data the second pass read (to compare with what the first pass had).
+struct SecondPassInput {
+  std::size_t wheel_states = 0;
+  int64_t last_wheel_utime = 0;  // 0 without wheel states
+};
+
 // The second pass of `solve --time-offset` (SolveLog), given the first pass's result `first` (with
 // its time offset): the scans of `log_path` matched again, de-skewed with `first`'s calibrated
 // model on the wheel clock (ReadCalibrationData's deskew_shift_us: the offset found), and
 // calibrated again with `options`; `origin` names the input in errors. The live solver runs it on
 // the group's recording at its final solve (docs/live.md), so `log_path` may still be being
-// written: it is read to its last complete event. `wheel_states`, if given, receives the number
-// of wheel states read (to compare with those the first pass had).
-// Whether `solve` runs that second pass after the first pass `first`: scans, with the time offset.
-bool SolvesAgainDeskewed(MotionSource source, const CalibrationOptions& options, const CalibrationResult& first);
+// written: it is read to its last complete event. `read`, if given, receives what it read.
 CalibrationResult SolveAgainDeskewed(const RobotDescription& robot, const std::string& log_path,
                                      const CalibrationResult& first, const CalibrationOptions& options,
-                                     const std::string& origin, std::size_t* wheel_states = nullptr);
+                                     const std::string& origin, SecondPassInput* read = nullptr);
 
 // `agvcal solve`: the motion source (ChooseMotionSource), the data, the calibration. With the
 // time offset (options.calibration.estimate_time_offset) and scans, the scans are matched a
