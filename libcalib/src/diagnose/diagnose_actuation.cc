@@ -32,10 +32,23 @@ struct Series {
   bool ramp = false;  // the setpoints ramp between commands (Setpoints) rather than hold
 };
 
-// Minimises f over [lo, hi] by golden section.
+// Minimises f over [lo, hi]: a grid first, then golden section between the grid's best point's
+// neighbours. Golden section alone assumes one minimum; a rate limit's cost is flat above every
+// commanded rate, and from there the section walked to the top of the range past a 0.62 rad/s
+// limit on a forklift commanded up to 1.13 rad/s. Ties go to the higher value (the null side of
+// the rate limit: a limit no command reaches changes nothing).
 double GoldenMin(const std::function<double(double)>& f, double lo, double hi) {
+  constexpr int kGrid = 40;
+  int best = 0;
+  double best_f = INFINITY;
+  for (int i = 0; i <= kGrid; ++i) {
+    const double fi = f(lo + (hi - lo) * i / kGrid);
+    if (fi <= best_f) best = i, best_f = fi;
+  }
+  const double step = (hi - lo) / kGrid;
   const double g = 0.5 * (std::sqrt(5.0) - 1.0);
-  double a = lo, b = hi, c = b - g * (b - a), d = a + g * (b - a);
+  double a = std::max(lo, lo + (best - 1) * step), b = std::min(hi, lo + (best + 1) * step);
+  double c = b - g * (b - a), d = a + g * (b - a);
   double fc = f(c), fd = f(d);
   for (int i = 0; i < 40; ++i) {
     if (fc < fd) b = d, d = c, fd = fc, c = b - g * (b - a), fc = f(c);
@@ -54,7 +67,9 @@ struct Layer {
   double lo = 0, hi = 1;  // search range (in the search variable)
   bool log_search = false;
   double plausible_sigma = 0.5;
-  double min_value = 0;  // below it the effect cannot be told from the data's timing
+  double min_value = 0;         // below it the effect cannot be told from the data's timing
+  double max_value = INFINITY;  // above it neither (the rate limit: the commands' own ramp)
+  std::string bound_note;       // why, for a candidate outside [min_value, max_value]
   std::vector<double> regressor;  // per sample, for the signature
   std::vector<bool> use;          // wheels used
 };
@@ -158,6 +173,8 @@ class Setpoints {
     return p;
   }
   std::size_t size() const { return to_.size(); }
+  // The setpoint command `c` moves toward.
+  const Point& Target(std::size_t c) const { return to_[c]; }
 
  private:
   std::array<double, 2> first_steer_{0, 0};
@@ -248,11 +265,64 @@ Layer DriveLagLayer(const Series& s, const Track& tr, const std::vector<DriveCom
   // A lag shorter than the jitter of the command stamps (a controller's tick: when within it
   // the robot took the command, CommandPeriod) cannot be told from that timing.
   CommandPeriod(commands, &L.min_value);
+  std::ostringstream note;
+  note.precision(3);
+  note << "shorter than the timing resolution of the command stamps (" << L.min_value << " s): not told from when the "
+       << "controller takes each command";
+  L.bound_note = note.str();
   return L;
 }
 
+// The rate the commands themselves move the steering setpoint at, rad/s. Each run of commands a
+// regular period apart (CommandPeriod) over which the steering setpoint keeps moving one way is
+// one ramp; its rate is its travel over its time, its first and last steps left out (a ramp
+// starts and ends between command times, so they are partial). The stamps are whole ticks of the
+// controller while the commander ramps on its own clock, so one step's rate is off by up to a
+// tick over the period (1.2 or 0.96 rad/s for 1.0 at 33.7 Hz on a 6.2 ms tick); over a ramp it
+// averages out. Of the ramps' rates, the one at which half the commanded steering travel goes
+// faster (weighted by travel: a few slow corrections do not set it). `share`: the part of one
+// step's rate the command stamps' timing resolution leaves uncertain (jitter / period).
+double CommandedSteeringRate(const RobotDescription& robot, const Track& tr, const std::vector<DriveCommand>& commands,
+                             double* share) {
+  double jitter = 0;
+  const double period = CommandPeriod(commands, &jitter);
+  *share = period > 0 ? jitter / period : 0.0;
+  const Setpoints setpoints(robot, tr, commands, false);
+  std::vector<std::pair<double, double>> ramps;  // rate, travel
+  std::vector<std::pair<double, double>> run;    // this ramp's steps: change, gap
+  auto close_run = [&] {
+    const std::size_t skip = run.size() >= 3 ? 1 : 0;
+    double travel = 0, time = 0;
+    for (std::size_t k = skip; k + skip < run.size(); ++k) travel += run[k].first, time += run[k].second;
+    if (time > 0) ramps.push_back({travel / time, travel});
+    run.clear();
+  };
+  int direction = 0;
+  for (std::size_t c = 1; c < commands.size(); ++c) {
+    const double gap = (commands[c].utime - commands[c - 1].utime) * 1e-6;
+    double change = 0;  // the steered wheel that moves most
+    for (int w = 0; w < tr.wheels && w < 2; ++w) {
+      const double d = setpoints.Target(c).steer[w] - setpoints.Target(c - 1).steer[w];
+      if (tr.steered[w] && std::abs(d) > std::abs(change)) change = d;
+    }
+    const int dir = change > 1e-9 ? 1 : change < -1e-9 ? -1 : 0;
+    if (dir == 0 || dir != direction || gap < 0.5 * period || gap > 1.5 * period) close_run();
+    direction = dir;
+    if (dir != 0 && gap >= 0.5 * period && gap <= 1.5 * period) run.push_back({std::abs(change), gap});
+  }
+  close_run();
+  double total = 0;
+  for (const auto& r : ramps) total += r.second;
+  std::sort(ramps.begin(), ramps.end());
+  double acc = 0;
+  for (const auto& [rate, travel] : ramps)
+    if ((acc += travel) >= 0.5 * total) return rate;
+  return 0.0;
+}
+
 // steering_rate_limit, searched in log(rate). `s` and `tr` must outlive the layer.
-Layer SteeringRateLimitLayer(const Series& s, const Track& tr) {
+Layer SteeringRateLimitLayer(const RobotDescription& robot, const Series& s, const Track& tr,
+                             const std::vector<DriveCommand>& commands) {
   const std::size_t n = tr.utime.size();
   const int nw = tr.wheels;
   Layer L;
@@ -276,6 +346,21 @@ Layer SteeringRateLimitLayer(const Series& s, const Track& tr) {
     return out;
   };
   L.regressor = CommandRate(s, s.steer_cmd);
+  // The commands ramp the steering themselves (a commander turns it at its own rate, in steps a
+  // command period apart), and each step is taken at the controller's tick: between two takes the
+  // steering is seen to move at the commanded rate times the period over the gap, uncertain by
+  // the share jitter / period (CommandPeriod). A limit within that share of the commanded rate,
+  // or above it, is not told from the command's own ramp delivered in ticks: on recordings without
+  // one the fit put a "limit" at 0.997-1.013 rad/s (and 1.43) for a commander ramping at 1.0 rad/s.
+  double share = 0;
+  const double rate = CommandedSteeringRate(robot, tr, commands, &share);
+  L.max_value = rate * (1 - share);
+  std::ostringstream note;
+  note.precision(3);
+  note << "not below " << L.max_value << " rad/s, the rate the commands themselves turn the steering at (" << rate
+       << " rad/s) less the " << 100 * share << " % the timing resolution of the command stamps leaves uncertain: "
+       << "not told from the command's own ramp";
+  L.bound_note = note.str();
   return L;
 }
 
@@ -359,10 +444,13 @@ bool JudgeLayer(const Layer& L, const LayerTest& test, int m, double alpha, doub
   o->p_value = test.p;
   o->p_adjusted = std::min(1.0, test.p * m * alpha / std::max(alpha_share, 1e-300));
   // Never below the timing resolution (a drive lag within the command stamps' jitter is not told).
-  o->detectable = std::max((NormalUpper(alpha_share / m) + NormalUpper(0.2)) * value_std, L.min_value);
+  // A rate limit is the larger the slower: the fastest limit the recording can tell is its
+  // ceiling (the commands' own ramp less the timing share).
+  o->detectable = L.log_search ? L.max_value
+                               : std::max((NormalUpper(alpha_share / m) + NormalUpper(0.2)) * value_std, L.min_value);
   const bool at_null_edge = L.log_search && test.est > L.hi - 0.5;  // no limit inside the searched range
-  const bool below_resolution = !L.log_search && value < L.min_value;
-  const bool significant = test.p * m < alpha_share && test.gain > kMinGain && !at_null_edge && !below_resolution;
+  const bool unresolved = value < L.min_value || value >= L.max_value;
+  const bool significant = test.p * m < alpha_share && test.gain > kMinGain && !at_null_edge && !unresolved;
   if (significant) {
     o->status = CandidateStatus::kFound;
   } else if (!(test.sigma < L.plausible_sigma) || at_null_edge) {
@@ -380,13 +468,7 @@ bool JudgeLayer(const Layer& L, const LayerTest& test, int m, double alpha, doub
     }
   } else {
     o->status = CandidateStatus::kNotSignificant;
-    if (below_resolution) {
-      std::ostringstream note;
-      note.precision(3);
-      note << "shorter than the timing resolution of the command stamps (" << L.min_value << " s): not told from when the "
-           << "controller takes each command";
-      o->note = note.str();
-    }
+    if (unresolved) o->note = L.bound_note;
   }
   return significant;
 }
@@ -494,7 +576,7 @@ void DiagnoseActuation(const RobotDescription& robot, const DiagnoseData& data,
   per_layer.precision(8);
   for (int k = 0; k < 2; ++k) {
     layer_sets[k].push_back(DriveLagLayer(profiles[k], tr, data.commands));
-    if (m > 1) layer_sets[k].push_back(SteeringRateLimitLayer(profiles[k], tr));
+    if (m > 1) layer_sets[k].push_back(SteeringRateLimitLayer(robot, profiles[k], tr, data.commands));
     for (const Layer& L : layer_sets[k]) {
       const double layer_score = FitLogSse(L, profiles[k]);
       // The speeds decide: they are compared integrated over each sample, so a sub-sample shift
