@@ -453,6 +453,9 @@ bool JudgeLayer(const Layer& L, const LayerTest& test, int m, double alpha, doub
   const bool significant = test.p * m < alpha_share && test.gain > kMinGain && !at_null_edge && !unresolved;
   if (significant) {
     o->status = CandidateStatus::kFound;
+  } else if (L.log_search && unresolved && !at_null_edge) {
+    o->status = CandidateStatus::kNotIdentifiable;  // a limit there cannot be detected: `detectable` is below it
+    o->note = L.bound_note;
   } else if (!(test.sigma < L.plausible_sigma) || at_null_edge) {
     o->status = CandidateStatus::kNotIdentifiable;
     if (L.log_search) {
