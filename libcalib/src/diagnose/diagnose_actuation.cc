@@ -37,7 +37,7 @@ struct Series {
 // commanded rate, and from there the section walked to the top of the range past a 0.62 rad/s
 // limit on a forklift commanded up to 1.13 rad/s. Ties go to the higher value (the null side of
 // the rate limit: a limit no command reaches changes nothing).
-double GoldenMin(const std::function<double(double)>& f, double lo, double hi) {
+double GridGoldenMin(const std::function<double(double)>& f, double lo, double hi) {
   constexpr int kGrid = 40;
   int best = 0;
   double best_f = INFINITY;
@@ -368,7 +368,7 @@ Layer SteeringRateLimitLayer(const RobotDescription& robot, const Series& s, con
 // log-likelihood up to constants, comparable between setpoint profiles).
 double FitLogSse(const Layer& L, const Series& s) {
   auto keep = [&](std::size_t i) { return !s.heldout[i]; };
-  const double best = GoldenMin([&](double x) { return Sse(L, L.predict(x), s, keep); }, L.lo, L.hi);
+  const double best = GridGoldenMin([&](double x) { return Sse(L, L.predict(x), s, keep); }, L.lo, L.hi);
   std::size_t n = 0;
   for (std::size_t i = 0; i < s.t.size(); ++i) n += keep(i) * (int(L.use[0]) + int(L.use[1]));
   return n * std::log(std::max(Sse(L, L.predict(best), s, keep), 1e-300) / std::max<std::size_t>(n, 1));
@@ -400,7 +400,7 @@ double AutocorrelationTime(const std::vector<double>& r, double rms) {
 LayerTest TestLayer(const Layer& L, const Series& s) {
   const std::size_t n = s.t.size();
   auto fit_on = [&](const std::function<bool(std::size_t)>& keep) {
-    return GoldenMin([&](double x) { return Sse(L, L.predict(x), s, keep); }, L.lo, L.hi);
+    return GridGoldenMin([&](double x) { return Sse(L, L.predict(x), s, keep); }, L.lo, L.hi);
   };
   LayerTest out;
   out.est = fit_on([&](std::size_t i) { return !s.heldout[i]; });
