@@ -292,6 +292,9 @@ class Diagnoser {
   Model baseline_, final_;
   std::vector<Model> alternatives_;  // the candidates' single fits of the last selection
   double offset_start_ = 0.0;
+  // The bound of the time offset: kMaxOffsetS, or the calibration's wider one when its search
+  // found the offset at that bound (calibration.h kWidestTimeOffsetS).
+  double max_offset_s_ = kMaxOffsetS;
   std::vector<std::string> notes_;
   int m_odo_ = 0, m_act_ = 0;
 };
@@ -341,11 +344,11 @@ Eigen::Vector3d Diagnoser::SpreadDerivative(
 
 void Diagnoser::BuildIntervals() {
   track_ = MakeTrack(robot_, data_.wheels);
-  const double margin = (kHistoryS + kMaxOffsetS) * 1e6;
+  const double margin = (kHistoryS + max_offset_s_) * 1e6;
   std::vector<const SensorMotion*> usable;
   for (const SensorMotion& m : data_.motions) {
     if (m.valid && !m.degenerate && m.utime_end > m.utime_start &&
-        data_.wheels.Covers(m.utime_start - margin, m.utime_end + kMaxOffsetS * 1e6))
+        data_.wheels.Covers(m.utime_start - margin, m.utime_end + max_offset_s_ * 1e6))
       usable.push_back(&m);
   }
   std::stable_sort(usable.begin(), usable.end(),
@@ -377,7 +380,7 @@ void Diagnoser::BuildIntervals() {
     it.heldout = it.block % 2 == 1;
     std::size_t first = std::upper_bound(ut.begin(), ut.end(), int64_t(m->utime_start - margin)) - ut.begin();
     first = first > 0 ? first - 1 : 0;
-    std::size_t last = std::lower_bound(ut.begin(), ut.end(), int64_t(m->utime_end + kMaxOffsetS * 1e6)) - ut.begin();
+    std::size_t last = std::lower_bound(ut.begin(), ut.end(), int64_t(m->utime_end + max_offset_s_ * 1e6)) - ut.begin();
     last = std::min(last, ut.size() - 1);
     for (int k = 0; k < 3; ++k) it.sigma[k] = std::sqrt(std::max(m->covariance(k, k), 1e-18));
     it.model = std::make_unique<IntervalModel>(
@@ -416,8 +419,8 @@ Fit Diagnoser::FitModel(const Model& start, const std::vector<int>& free,
       problem.SetManifold(fit.m.beta, new ceres::SubsetManifold(kNumBeta, fixed));
       problem.SetParameterLowerBound(fit.m.beta, kLag, 0.0);
       problem.SetParameterUpperBound(fit.m.beta, kLag, 0.5);
-      problem.SetParameterLowerBound(fit.m.beta, kTimeOffset, -kMaxOffsetS);
-      problem.SetParameterUpperBound(fit.m.beta, kTimeOffset, kMaxOffsetS);
+      problem.SetParameterLowerBound(fit.m.beta, kTimeOffset, -max_offset_s_);
+      problem.SetParameterUpperBound(fit.m.beta, kTimeOffset, max_offset_s_);
       // A scan period is not negative: unbounded, MIT CSAIL's single fit went to -0.19 s and the
       // joint fit traded the period against the time offset (241 ms with 0.17 s, 147 ms alone).
       problem.SetParameterLowerBound(fit.m.beta, kDistortion, 0.0);
@@ -1119,6 +1122,12 @@ DiagnoseReport Diagnoser::Run() {
   }
   const CalibrationResult& cal = *cal_plain;
   offset_start_ = cal_offset->time_offset->value;
+  if (cal_offset->time_offset_bound_s > max_offset_s_) {
+    // The intervals again, with room for the wider offset on the wheel data.
+    max_offset_s_ = cal_offset->time_offset_bound_s;
+    intervals_.clear();
+    BuildIntervals();
+  }
   Model start;
   for (int i = 0; i < num_params_; ++i) {
     start.params[i] = cal.params.at(names[i]).value;
@@ -1427,7 +1436,7 @@ void Diagnoser::ReportFound(const std::vector<Candidate>& cands, const Selection
     fe.p_value = selection.p[n];
     fe.p_adjusted = std::min(1.0, selection.p[n] * double(m_odo - n) * double(m_odo + m_act) / m_odo);
     fe.delta_bic = DeltaBicAt(without, f0, current.chi2_fit, without.chi2_fit, c.beta.size(), log_n);
-    if (c.beta[0] == kTimeOffset && std::abs(current.m.beta[kTimeOffset]) > 0.95 * kMaxOffsetS)
+    if (c.beta[0] == kTimeOffset && std::abs(current.m.beta[kTimeOffset]) > 0.95 * max_offset_s_)
       report->notes.push_back("the time offset is at its search bound: treat it as larger than shown");
     if (!c.catalogued) {
       Unexplained un;
