@@ -574,8 +574,22 @@ CalibrationResult Calibrate(const RobotDescription& robot, const WheelTrack& whe
     std::vector<SensorMotion> fit_motions;
     for (std::size_t k = 0; k < num_fit; ++k) fit_motions.push_back(*usable[k]);
     state.offset[0] = SearchTimeOffset(robot.drive, state.params, wheels, fit_motions, options.max_time_offset_s).offset_s;
+    result.time_offset_bound_s = options.max_time_offset_s;
   }
+  const double search_offset = state.offset[0];
   const double scale = RobustFit(intervals, num_params, options, &state);
+  // The search's or the fit's offset at the bound (within the fine grid's reach): search and
+  // fit again over twice the range. A recording too short for the wider margin keeps the bound.
+  constexpr double kAtBoundS = 0.002;
+  if (with_offset && options.max_time_offset_s < kWidestTimeOffsetS &&
+      std::max(std::abs(search_offset), std::abs(state.offset[0])) >= options.max_time_offset_s - kAtBoundS) {
+    CalibrationOptions wider = options;
+    wider.max_time_offset_s = std::min(2.0 * options.max_time_offset_s, kWidestTimeOffsetS);
+    try {
+      return Calibrate(robot, wheels, motions, source, wider, origin);
+    } catch (const InputError&) {
+    }
+  }
   const int dim = num_params + 3 + (with_offset ? 1 : 0);
   SummarizeResiduals(intervals, state, nominal, scale, num_fit, dim, &result);
   const std::vector<double> sigma = Covariance(InlierScores(intervals, state, num_params, with_offset, scale), &result);
