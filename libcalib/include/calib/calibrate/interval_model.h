@@ -74,8 +74,9 @@ double Scalar(const ceres::Jet<T, N>& x) {
 
 // The encoder samples of a recording in the model's terms: the drive, and the WheelTrack read in
 // place (a copy was the largest part of a long live solve's memory, docs/live.md), wheels in
-// WheelRoles(drive) order; the readings of a wheel the drive does not have (w < 2) are 0. The
-// WheelTrack must outlive the view and stay unchanged while it is used.
+// WheelRoles(drive) order; pos() and steer() of w >= wheels (the second of the two wheels the
+// models allow, on a drive with one) are 0. The WheelTrack must outlive the view and stay
+// unchanged while it is used.
 class EncoderTrack {
  public:
   EncoderTrack() = default;
