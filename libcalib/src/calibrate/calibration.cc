@@ -160,7 +160,7 @@ std::vector<const SensorMotion*> UsableMotions(const WheelTrack& wheels,
 // The cost of an interval: the encoder samples spanning it (with `margin_us` either side).
 Interval MakeInterval(const EncoderTrack& track, int num_params, const SensorMotion& m,
                       double margin_us, bool heldout) {
-  const std::vector<int64_t>& utime = track.utime;
+  const std::vector<int64_t>& utime = track.utimes();
   const double t0 = m.utime_start - margin_us, t1 = m.utime_end + margin_us;
   auto first = std::upper_bound(utime.begin(), utime.end(), t0, [](double t, int64_t u) { return t < u; });
   if (first != utime.begin()) --first;
@@ -557,7 +557,7 @@ CalibrationResult Calibrate(const RobotDescription& robot, const WheelTrack& whe
                          " failed or outside the encoder data); at least 20 are needed");
   }
 
-  const EncoderTrack track = MakeEncoderTrack(robot.drive, wheels);
+  const EncoderTrack track(robot.drive, wheels);
   std::vector<Interval> intervals;
   std::vector<MotionInterval> closed_form_input;
   for (std::size_t k = 0; k < usable.size(); ++k) {
@@ -615,7 +615,7 @@ OdometryError EvaluateOdometry(const RobotDescription& robot, MotionSource sourc
                                double window_s) {
   ResidualSummary ignored;
   const int num_params = static_cast<int>(ParamNames(robot.drive).size());
-  const EncoderTrack track = MakeEncoderTrack(robot.drive, wheels);
+  const EncoderTrack track(robot.drive, wheels);
   std::vector<Interval> intervals;
   for (const SensorMotion* m : UsableMotions(wheels, motions, 0.0, &ignored))
     intervals.push_back(MakeInterval(track, num_params, *m, 0.0, true /* heldout */));

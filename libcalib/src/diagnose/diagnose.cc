@@ -31,7 +31,7 @@ namespace calib {
 namespace diag {
 
 Track MakeTrack(const RobotDescription& robot, const WheelTrack& wheels) {
-  Track tr(MakeEncoderTrack(robot.drive, wheels));
+  Track tr(EncoderTrack(robot.drive, wheels));
   const auto& roles = WheelRoles(robot.drive);
   const auto& names = ParamNames(robot.drive);
   for (int w = 0; w < tr.wheels; ++w) {
@@ -39,27 +39,27 @@ Track MakeTrack(const RobotDescription& robot, const WheelTrack& wheels) {
     tr.radius_index[w] = static_cast<int>(
         std::find(names.begin(), names.end(), RadiusParamName(roles[w])) - names.begin());
   }
-  const std::size_t n = tr.utime.size();
+  const std::size_t n = tr.size();
   tr.speed.assign(n, {0, 0});
   tr.steer_sign.assign(n, {0, 0});
   tr.travel_sign.assign(n, 1.0);
   if (n < 3) return tr;
   // Speeds by central differences over about +-50 ms: below that, tick quantisation dominates.
-  const double dt = (tr.utime.back() - tr.utime.front()) * 1e-6 / double(n - 1);
+  const double dt = (tr.utimes().back() - tr.utimes().front()) * 1e-6 / double(n - 1);
   const int k = std::max(1, int(std::lround(0.05 / std::max(dt, 1e-4))));
   for (std::size_t i = 0; i < n; ++i) {
     const std::size_t lo = i >= std::size_t(k) ? i - k : 0, hi = std::min(n - 1, i + k);
-    const double span = (tr.utime[hi] - tr.utime[lo]) * 1e-6;
-    for (int w = 0; w < tr.wheels; ++w) tr.speed[i][w] = (tr.pos[hi][w] - tr.pos[lo][w]) / span;
+    const double span = (tr.utime(hi) - tr.utime(lo)) * 1e-6;
+    for (int w = 0; w < tr.wheels; ++w) tr.speed[i][w] = (tr.pos(hi, w) - tr.pos(lo, w)) / span;
   }
   tr.smooth_k = k;
   // Direction of the last steering motion, with hysteresis above the reading's noise.
   constexpr double kSteerHysteresis = 0.002;  // rad
   for (int w = 0; w < tr.wheels; ++w) {
     if (!tr.steered[w]) continue;
-    double sign = 0, extreme = tr.steer[0][w];
+    double sign = 0, extreme = tr.steer(0, w);
     for (std::size_t i = 0; i < n; ++i) {
-      const double s = tr.steer[i][w];
+      const double s = tr.steer(i, w);
       if (sign >= 0 && s < extreme - kSteerHysteresis) sign = -1, extreme = s;
       else if (sign <= 0 && s > extreme + kSteerHysteresis) sign = 1, extreme = s;
       else if ((sign > 0 && s > extreme) || (sign < 0 && s < extreme)) extreme = s;
@@ -363,7 +363,7 @@ void Diagnoser::BuildIntervals() {
   for (const SensorMotion& m : data_.motions_spread)
     if (m.valid) spread[{m.utime_start, m.utime_end}] = &m;
   const int64_t t_first = usable.front()->utime_start;
-  const auto& ut = track_.utime;
+  const auto& ut = track_.utimes();
   const double lead_s = data_.deskew_robot ? data_.deskew_lead_s : 0.0;
   const std::unique_ptr<DriveModel> deskew_model = lead_s > 0 ? MakeDriveModel(*data_.deskew_robot) : nullptr;
   // The de-skew odometry over the lead after a stamp, on the wheel clock the matcher used.
@@ -544,15 +544,15 @@ std::vector<Candidate> Diagnoser::Candidates() const {
 // Motion conditions per interval from the encoders and the baseline model.
 void Diagnoser::Conditions(DiagnoseReport* report) const {
   const Track& tr = track_;
-  const std::size_t n = tr.utime.size();
+  const std::size_t n = tr.size();
   std::vector<double> vx(n), om(n), xs(n), ys(n), route(n);
   double x = 0, y = 0, th = 0, dist = 0;
   for (std::size_t i = 0; i < n; ++i) {
-    double rates[2] = {tr.speed[i][0], tr.speed[i][1]}, steer[2] = {tr.steer[i][0], tr.steer[i][1]};
+    double rates[2] = {tr.speed[i][0], tr.speed[i][1]}, steer[2] = {tr.steer(i, 0), tr.steer(i, 1)};
     double vy = 0;
     generic::BodyDisplacement(tr.drive, baseline_.params, rates, steer, &vx[i], &vy, &om[i]);
     if (i > 0) {
-      const double dt = (tr.utime[i] - tr.utime[i - 1]) * 1e-6;
+      const double dt = (tr.utime(i) - tr.utime(i - 1)) * 1e-6;
       x += std::cos(th) * vx[i - 1] * dt;
       y += std::sin(th) * vx[i - 1] * dt;
       th += om[i - 1] * dt;
@@ -562,8 +562,8 @@ void Diagnoser::Conditions(DiagnoseReport* report) const {
   }
   const int steer_param = robot_.drive == DriveType::kTricycle ? 2 : robot_.drive == DriveType::kDualSteer ? 1 : -1;
   for (DiagnosedInterval& d : report->intervals) {
-    const auto i0 = std::size_t(std::lower_bound(tr.utime.begin(), tr.utime.end(), d.utime_start) - tr.utime.begin());
-    auto i1 = std::size_t(std::upper_bound(tr.utime.begin(), tr.utime.end(), d.utime_end) - tr.utime.begin());
+    const auto i0 = std::size_t(std::lower_bound(tr.utimes().begin(), tr.utimes().end(), d.utime_start) - tr.utimes().begin());
+    auto i1 = std::size_t(std::upper_bound(tr.utimes().begin(), tr.utimes().end(), d.utime_end) - tr.utimes().begin());
     i1 = i1 > 0 ? i1 - 1 : 0;
     const std::size_t a = std::min(i0, n - 1), b = std::max(std::min(i1, n - 1), a);
     MotionConditions& c = d.motion;
@@ -571,13 +571,13 @@ void Diagnoser::Conditions(DiagnoseReport* report) const {
     for (std::size_t i = a; i <= b; ++i) sv += vx[i], so += om[i];
     c.speed = sv / double(b - a + 1);
     c.turn_rate = so / double(b - a + 1);
-    const double span = std::max((tr.utime[b] - tr.utime[a]) * 1e-6, 1e-3);
+    const double span = std::max((tr.utime(b) - tr.utime(a)) * 1e-6, 1e-3);
     c.accel = b > a ? (vx[b] - vx[a]) / span : 0.0;
     c.turn_accel = b > a ? (om[b] - om[a]) / span : 0.0;
     c.centripetal = c.speed * c.turn_rate;
     if (steer_param >= 0) {
-      c.steer = 0.5 * (tr.steer[a][0] + tr.steer[b][0]) - baseline_.params[steer_param];
-      c.steer_rate = b > a ? (tr.steer[b][0] - tr.steer[a][0]) / span : 0.0;
+      c.steer = 0.5 * (tr.steer(a, 0) + tr.steer(b, 0)) - baseline_.params[steer_param];
+      c.steer_rate = b > a ? (tr.steer(b, 0) - tr.steer(a, 0)) / span : 0.0;
       c.steer_direction = int(tr.steer_sign[a][0]);
     }
     c.route_m = route[a];
@@ -601,7 +601,7 @@ double Diagnoser::Regressor(const std::string& name, const DiagnosedInterval& d,
   if (name.rfind("wheel_angle_", 0) == 0) {
     const int w = std::stoi(name.substr(12));
     const std::size_t mid = (it.model->first() + it.model->last()) / 2;
-    return std::fmod(std::fmod(track_.pos[mid][w], 2 * M_PI) + 2 * M_PI, 2 * M_PI);
+    return std::fmod(std::fmod(track_.pos(mid, w), 2 * M_PI) + 2 * M_PI, 2 * M_PI);
   }
   if (name == "speed") return c.speed;
   if (name == "turn_rate") return c.turn_rate;
