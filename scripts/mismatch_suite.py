@@ -172,6 +172,7 @@ def random_sensors(rng, drive):
          "step": step, "cmd_rate": round(rng.uniform(10, 50), 1),
          "between": rng.choice(["hold", "ramp"])}
     d["cmd_rate"] = min(d["cmd_rate"], round(1.0 / d["step"], 1))
+    d["enc_rate"] = min(d["enc_rate"], math.floor(10.0 / d["step"]) / 10)  # rounding took 188.68 Hz to 188.7
     return d
 
 

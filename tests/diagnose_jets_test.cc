@@ -16,6 +16,7 @@
 
 #include <Eigen/Core>
 
+#include "calib/core/wheel_track.h"
 #include "diagnose/diagnose_model.h"
 
 namespace calib::diag {
@@ -25,21 +26,25 @@ constexpr int64_t kStart = 1'000'000'000;  // us
 constexpr int64_t kPeriod = 20'000;        // 50 Hz encoders
 constexpr int kSamples = 400;
 
+// The encoder samples of DualSteerTrack (which reads them in place).
+const WheelTrack& DualSteerWheels() {
+  static const WheelTrack wheels = [] {
+    WheelTrack track;
+    double pos0 = 0, pos1 = 0;
+    for (int i = 0; i < kSamples; ++i) {
+      const double t = i * kPeriod * 1e-6;
+      const double speed = i < 300 ? 4.0 + std::sin(t) : -3.0;  // rad/s, reversing near the end
+      pos0 += speed * kPeriod * 1e-6;
+      pos1 += 0.97 * speed * kPeriod * 1e-6;
+      track.Append({kStart + i * kPeriod, {pos0, pos1}, {0.3 * std::sin(1.3 * t), -0.2 * std::sin(0.9 * t + 0.4)}});
+    }
+    return track;
+  }();
+  return wheels;
+}
+
 Track DualSteerTrack() {
-  EncoderTrack enc;
-  enc.drive = DriveType::kDualSteer;
-  enc.wheels = 2;
-  double pos0 = 0, pos1 = 0;
-  for (int i = 0; i < kSamples; ++i) {
-    const double t = i * kPeriod * 1e-6;
-    const double speed = i < 300 ? 4.0 + std::sin(t) : -3.0;  // rad/s, reversing near the end
-    pos0 += speed * kPeriod * 1e-6;
-    pos1 += 0.97 * speed * kPeriod * 1e-6;
-    enc.utime.push_back(kStart + i * kPeriod);
-    enc.pos.push_back({pos0, pos1});
-    enc.steer.push_back({0.3 * std::sin(1.3 * t), -0.2 * std::sin(0.9 * t + 0.4)});
-  }
-  Track tr(std::move(enc));
+  Track tr(EncoderTrack(DriveType::kDualSteer, DualSteerWheels()));
   tr.steered = {true, true};
   tr.radius_index = {0, 3};
   tr.speed.assign(kSamples, {0, 0});
@@ -47,8 +52,8 @@ Track DualSteerTrack() {
   tr.travel_sign.assign(kSamples, 1.0);
   for (int i = 1; i + 1 < kSamples; ++i) {
     for (int w = 0; w < 2; ++w) {
-      tr.speed[i][w] = (tr.pos[i + 1][w] - tr.pos[i - 1][w]) / (2 * kPeriod * 1e-6);
-      tr.steer_sign[i][w] = tr.steer[i + 1][w] > tr.steer[i - 1][w] ? 1.0 : -1.0;
+      tr.speed[i][w] = (tr.pos(i + 1, w) - tr.pos(i - 1, w)) / (2 * kPeriod * 1e-6);
+      tr.steer_sign[i][w] = tr.steer(i + 1, w) > tr.steer(i - 1, w) ? 1.0 : -1.0;
     }
     tr.travel_sign[i] = tr.speed[i][0] > 0 ? 1.0 : -1.0;
   }
@@ -58,7 +63,7 @@ Track DualSteerTrack() {
 // A model over samples [first, last], the interval 0.3 s long from sample `first` + 120.
 IntervalModel Interval(const Track& tr, std::size_t first) {
   const Eigen::Matrix3d sqrt_information = Eigen::Vector3d(100, 80, 300).asDiagonal();
-  return IntervalModel(&tr, first, first + 150, tr.utime[first + 120], 0.3, Eigen::Vector3d(0.35, 0.02, 0.04),
+  return IntervalModel(&tr, first, first + 150, tr.utime(first + 120), 0.3, Eigen::Vector3d(0.35, 0.02, 0.04),
                        sqrt_information, Eigen::Vector3d(0.1, -0.2, 0.3), 0.01, Pose2{0.003, 0.0, 0.001},
                        Pose2{0.004, 0.001, -0.002});
 }

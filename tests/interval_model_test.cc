@@ -73,7 +73,7 @@ class IntervalModelTest : public ::testing::TestWithParam<Drive> {
   void SetUp() override {
     const Drive& drive = GetParam();
     wheels_ = SyntheticWheels(drive.type);
-    track_ = MakeEncoderTrack(drive.type, wheels_);
+    track_ = EncoderTrack(drive.type, wheels_);
     const std::unique_ptr<DriveModel> model = MakeDriveModel(drive.type, drive.params);
     const int64_t t0 = kTrackStart + 700'003, t1 = kTrackStart + 1'107'011;  // off the samples
     const double shift = kOffsetS * 1e6;

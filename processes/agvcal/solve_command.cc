@@ -42,8 +42,9 @@ time offset. Prints a summary; RESULT.json follows spec/cli.md.
   --distance-std METRES      imu: its one sigma (default 0.001)
   --turn-angle DEG           imu: measured angle of the first turn in place; calibrates the
                              gyro scale (without it the scale stays at imu.gyro_scale)
-  --time-offset              also estimate the lidar-to-wheel time offset (within +-0.5 s:
-                             a global search, then the joint fit; the same estimate
+  --time-offset              also estimate the lidar-to-wheel time offset (within +-0.5 s,
+                             searched again over twice the range, up to +-2 s, when it
+                             lies at the bound: a global search, then the joint fit; the same estimate
                              agvcal diagnose starts from); the scans are then matched
                              again, de-skewed with the calibrated model and offset
   --fit-fraction F           fit on the first fraction F of the recording, and compare the

@@ -160,7 +160,7 @@ std::vector<const SensorMotion*> UsableMotions(const WheelTrack& wheels,
 // The cost of an interval: the encoder samples spanning it (with `margin_us` either side).
 Interval MakeInterval(const EncoderTrack& track, int num_params, const SensorMotion& m,
                       double margin_us, bool heldout) {
-  const std::vector<int64_t>& utime = track.utime;
+  const std::vector<int64_t>& utime = track.utimes();
   const double t0 = m.utime_start - margin_us, t1 = m.utime_end + margin_us;
   auto first = std::upper_bound(utime.begin(), utime.end(), t0, [](double t, int64_t u) { return t < u; });
   if (first != utime.begin()) --first;
@@ -557,7 +557,7 @@ CalibrationResult Calibrate(const RobotDescription& robot, const WheelTrack& whe
                          " failed or outside the encoder data); at least 20 are needed");
   }
 
-  const EncoderTrack track = MakeEncoderTrack(robot.drive, wheels);
+  const EncoderTrack track(robot.drive, wheels);
   std::vector<Interval> intervals;
   std::vector<MotionInterval> closed_form_input;
   for (std::size_t k = 0; k < usable.size(); ++k) {
@@ -574,8 +574,22 @@ CalibrationResult Calibrate(const RobotDescription& robot, const WheelTrack& whe
     std::vector<SensorMotion> fit_motions;
     for (std::size_t k = 0; k < num_fit; ++k) fit_motions.push_back(*usable[k]);
     state.offset[0] = SearchTimeOffset(robot.drive, state.params, wheels, fit_motions, options.max_time_offset_s).offset_s;
+    result.time_offset_bound_s = options.max_time_offset_s;
   }
+  const double search_offset = state.offset[0];
   const double scale = RobustFit(intervals, num_params, options, &state);
+  // The search's or the fit's offset at the bound (within the fine grid's reach): search and
+  // fit again over twice the range. A recording too short for the wider margin keeps the bound.
+  constexpr double kAtBoundS = 0.002;
+  if (with_offset && options.max_time_offset_s < kWidestTimeOffsetS &&
+      std::max(std::abs(search_offset), std::abs(state.offset[0])) >= options.max_time_offset_s - kAtBoundS) {
+    CalibrationOptions wider = options;
+    wider.max_time_offset_s = std::min(2.0 * options.max_time_offset_s, kWidestTimeOffsetS);
+    try {
+      return Calibrate(robot, wheels, motions, source, wider, origin);
+    } catch (const InputError&) {
+    }
+  }
   const int dim = num_params + 3 + (with_offset ? 1 : 0);
   SummarizeResiduals(intervals, state, nominal, scale, num_fit, dim, &result);
   const std::vector<double> sigma = Covariance(InlierScores(intervals, state, num_params, with_offset, scale), &result);
@@ -601,7 +615,7 @@ OdometryError EvaluateOdometry(const RobotDescription& robot, MotionSource sourc
                                double window_s) {
   ResidualSummary ignored;
   const int num_params = static_cast<int>(ParamNames(robot.drive).size());
-  const EncoderTrack track = MakeEncoderTrack(robot.drive, wheels);
+  const EncoderTrack track(robot.drive, wheels);
   std::vector<Interval> intervals;
   for (const SensorMotion* m : UsableMotions(wheels, motions, 0.0, &ignored))
     intervals.push_back(MakeInterval(track, num_params, *m, 0.0, true /* heldout */));

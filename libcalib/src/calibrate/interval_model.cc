@@ -5,7 +5,6 @@
 #include <Eigen/Cholesky>
 #include <Eigen/LU>
 
-#include "calib/core/kinematics.h"
 
 namespace calib {
 
@@ -24,23 +23,6 @@ Eigen::Matrix3d SqrtInformation(const Eigen::Matrix3d& covariance) {
     return Eigen::Vector3d(1.0 / 0.01, 1.0 / 0.01, 1.0 / 0.005).asDiagonal();  // 1 cm, 0.3 deg
   }
   return llt.matrixU();
-}
-
-EncoderTrack MakeEncoderTrack(DriveType drive, const WheelTrack& wheels) {
-  EncoderTrack track;
-  track.drive = drive;
-  track.wheels = static_cast<int>(WheelRoles(drive).size());
-  const std::size_t n = wheels.size();
-  track.utime = wheels.utimes();
-  track.pos.assign(n, {0, 0});
-  track.steer.assign(n, {0, 0});
-  for (std::size_t i = 0; i < n; ++i) {
-    for (int w = 0; w < track.wheels; ++w) {
-      track.pos[i][w] = wheels.position(i, w);
-      track.steer[i][w] = wheels.steer(i, w);
-    }
-  }
-  return track;
 }
 
 }  // namespace calib

@@ -25,15 +25,15 @@ struct Cumulative {
 
 Cumulative Integrate(const EncoderTrack& track, const double* params) {
   Cumulative c;
-  const std::size_t n = track.utime.size();
+  const std::size_t n = track.size();
   c.t.resize(n), c.heading.assign(n, 0.0), c.path.assign(n, 0.0);
   for (std::size_t i = 0; i < n; ++i) {
-    c.t[i] = (track.utime[i] - track.utime.front()) * 1e-6;
+    c.t[i] = (track.utime(i) - track.utime(0)) * 1e-6;
     if (i == 0) continue;
     double rotation[2], steer[2];
     for (int w = 0; w < 2; ++w) {
-      rotation[w] = w < track.wheels ? track.pos[i][w] - track.pos[i - 1][w] : 0.0;
-      steer[w] = w < track.wheels ? 0.5 * (track.steer[i][w] + track.steer[i - 1][w]) : 0.0;
+      rotation[w] = track.pos(i, w) - track.pos(i - 1, w);  // 0 for a wheel the drive lacks
+      steer[w] = 0.5 * (track.steer(i, w) + track.steer(i - 1, w));
     }
     double dx = 0, dy = 0, dtheta = 0;
     generic::BodyDisplacement(track.drive, params, rotation, steer, &dx, &dy, &dtheta);
@@ -86,10 +86,10 @@ TimeOffsetSearch SearchTimeOffset(DriveType drive, const double* params, const W
                                   const std::vector<SensorMotion>& motions, double max_offset_s) {
   TimeOffsetSearch out;
   if (wheels.size() < 2) return out;
-  const EncoderTrack track = MakeEncoderTrack(drive, wheels);
+  const EncoderTrack track(drive, wheels);
   const Cumulative c = Integrate(track, params);
   std::vector<Observed> obs;
-  const double t_first = track.utime.front() * 1e-6;
+  const double t_first = track.utime(0) * 1e-6;
   for (const SensorMotion& m : motions) {
     if (!m.valid || m.degenerate || m.utime_end <= m.utime_start) continue;
     Observed o;

@@ -31,7 +31,7 @@ namespace calib {
 namespace diag {
 
 Track MakeTrack(const RobotDescription& robot, const WheelTrack& wheels) {
-  Track tr(MakeEncoderTrack(robot.drive, wheels));
+  Track tr(EncoderTrack(robot.drive, wheels));
   const auto& roles = WheelRoles(robot.drive);
   const auto& names = ParamNames(robot.drive);
   for (int w = 0; w < tr.wheels; ++w) {
@@ -39,27 +39,27 @@ Track MakeTrack(const RobotDescription& robot, const WheelTrack& wheels) {
     tr.radius_index[w] = static_cast<int>(
         std::find(names.begin(), names.end(), RadiusParamName(roles[w])) - names.begin());
   }
-  const std::size_t n = tr.utime.size();
+  const std::size_t n = tr.size();
   tr.speed.assign(n, {0, 0});
   tr.steer_sign.assign(n, {0, 0});
   tr.travel_sign.assign(n, 1.0);
   if (n < 3) return tr;
   // Speeds by central differences over about +-50 ms: below that, tick quantisation dominates.
-  const double dt = (tr.utime.back() - tr.utime.front()) * 1e-6 / double(n - 1);
+  const double dt = (tr.utimes().back() - tr.utimes().front()) * 1e-6 / double(n - 1);
   const int k = std::max(1, int(std::lround(0.05 / std::max(dt, 1e-4))));
   for (std::size_t i = 0; i < n; ++i) {
     const std::size_t lo = i >= std::size_t(k) ? i - k : 0, hi = std::min(n - 1, i + k);
-    const double span = (tr.utime[hi] - tr.utime[lo]) * 1e-6;
-    for (int w = 0; w < tr.wheels; ++w) tr.speed[i][w] = (tr.pos[hi][w] - tr.pos[lo][w]) / span;
+    const double span = (tr.utime(hi) - tr.utime(lo)) * 1e-6;
+    for (int w = 0; w < tr.wheels; ++w) tr.speed[i][w] = (tr.pos(hi, w) - tr.pos(lo, w)) / span;
   }
   tr.smooth_k = k;
   // Direction of the last steering motion, with hysteresis above the reading's noise.
   constexpr double kSteerHysteresis = 0.002;  // rad
   for (int w = 0; w < tr.wheels; ++w) {
     if (!tr.steered[w]) continue;
-    double sign = 0, extreme = tr.steer[0][w];
+    double sign = 0, extreme = tr.steer(0, w);
     for (std::size_t i = 0; i < n; ++i) {
-      const double s = tr.steer[i][w];
+      const double s = tr.steer(i, w);
       if (sign >= 0 && s < extreme - kSteerHysteresis) sign = -1, extreme = s;
       else if (sign <= 0 && s > extreme + kSteerHysteresis) sign = 1, extreme = s;
       else if ((sign > 0 && s > extreme) || (sign < 0 && s < extreme)) extreme = s;
@@ -153,10 +153,27 @@ struct Fit {
   double chi2_fit = 0, chi2_heldout = 0;  // whitened, divided by the variance factor
   std::vector<double> heldout_terms;      // chi2 of each held-out interval, in order
   int n_fit = 0, n_heldout = 0;
+  int dof = 1;                 // 3 n_fit less the parameters fitted
   Eigen::MatrixXd cov;         // robust covariance of the free effect parameters
   double wald = 0, p = 1;      // of the free effect parameters named in `tested`
   std::vector<int> tested;
 };
+
+// The variance factor of `model` in units of `baseline`'s (the noise scale s2 every chi-square
+// is divided by): the noise scale of a test against `model` instead of the baseline.
+double RelativeScale(const Fit& model, const Fit& baseline) {
+  return (model.chi2_fit / model.dof) / (baseline.chi2_fit / baseline.dof);
+}
+
+// DeltaBic (selection.h) with the chi-squares in the noise scale of `reference`, the model the
+// parameters are added to: the baseline has no effect, and a large one (a time offset of 50 ms
+// on the forklift: variance factor 707 against 1.3 once it is modelled) would otherwise keep
+// every second effect from paying for its parameter.
+double DeltaBicAt(const Fit& reference, const Fit& f0, double chi2_with, double chi2_without, std::size_t params,
+                  double log_n) {
+  const double scale = RelativeScale(reference, f0);
+  return DeltaBic(chi2_with / scale, chi2_without / scale, params, log_n);
+}
 
 // How much lower, as a fraction, the held-out chi-square is after than before.
 double HeldoutGain(const Fit& before, const Fit& after) {
@@ -239,7 +256,7 @@ class Diagnoser {
   // The intervals before and after, and the held-out figures of the whole model.
   void DescribeModel(const Fit& f0, const Fit& current, DiagnoseReport* report) const;
   void ReportFound(const std::vector<Candidate>& cands, const Selection& selection, const SelectionLevels& levels,
-                   const Fit& current, double log_n, DiagnoseReport* report) const;
+                   const Fit& f0, const Fit& current, double log_n, DiagnoseReport* report) const;
   void ReportCalibration(const Fit& f0, const Fit& current, const CalibrationResult& cal,
                          DiagnoseReport* report) const;
   class RecordingFits;
@@ -275,6 +292,9 @@ class Diagnoser {
   Model baseline_, final_;
   std::vector<Model> alternatives_;  // the candidates' single fits of the last selection
   double offset_start_ = 0.0;
+  // The bound of the time offset: kMaxOffsetS, or the calibration's wider one when its search
+  // found the offset at that bound (calibration.h kWidestTimeOffsetS).
+  double max_offset_s_ = kMaxOffsetS;
   std::vector<std::string> notes_;
   int m_odo_ = 0, m_act_ = 0;
 };
@@ -324,11 +344,11 @@ Eigen::Vector3d Diagnoser::SpreadDerivative(
 
 void Diagnoser::BuildIntervals() {
   track_ = MakeTrack(robot_, data_.wheels);
-  const double margin = (kHistoryS + kMaxOffsetS) * 1e6;
+  const double margin = (kHistoryS + max_offset_s_) * 1e6;
   std::vector<const SensorMotion*> usable;
   for (const SensorMotion& m : data_.motions) {
     if (m.valid && !m.degenerate && m.utime_end > m.utime_start &&
-        data_.wheels.Covers(m.utime_start - margin, m.utime_end + kMaxOffsetS * 1e6))
+        data_.wheels.Covers(m.utime_start - margin, m.utime_end + max_offset_s_ * 1e6))
       usable.push_back(&m);
   }
   std::stable_sort(usable.begin(), usable.end(),
@@ -343,7 +363,7 @@ void Diagnoser::BuildIntervals() {
   for (const SensorMotion& m : data_.motions_spread)
     if (m.valid) spread[{m.utime_start, m.utime_end}] = &m;
   const int64_t t_first = usable.front()->utime_start;
-  const auto& ut = track_.utime;
+  const auto& ut = track_.utimes();
   const double lead_s = data_.deskew_robot ? data_.deskew_lead_s : 0.0;
   const std::unique_ptr<DriveModel> deskew_model = lead_s > 0 ? MakeDriveModel(*data_.deskew_robot) : nullptr;
   // The de-skew odometry over the lead after a stamp, on the wheel clock the matcher used.
@@ -360,7 +380,7 @@ void Diagnoser::BuildIntervals() {
     it.heldout = it.block % 2 == 1;
     std::size_t first = std::upper_bound(ut.begin(), ut.end(), int64_t(m->utime_start - margin)) - ut.begin();
     first = first > 0 ? first - 1 : 0;
-    std::size_t last = std::lower_bound(ut.begin(), ut.end(), int64_t(m->utime_end + kMaxOffsetS * 1e6)) - ut.begin();
+    std::size_t last = std::lower_bound(ut.begin(), ut.end(), int64_t(m->utime_end + max_offset_s_ * 1e6)) - ut.begin();
     last = std::min(last, ut.size() - 1);
     for (int k = 0; k < 3; ++k) it.sigma[k] = std::sqrt(std::max(m->covariance(k, k), 1e-18));
     it.model = std::make_unique<IntervalModel>(
@@ -399,8 +419,8 @@ Fit Diagnoser::FitModel(const Model& start, const std::vector<int>& free,
       problem.SetManifold(fit.m.beta, new ceres::SubsetManifold(kNumBeta, fixed));
       problem.SetParameterLowerBound(fit.m.beta, kLag, 0.0);
       problem.SetParameterUpperBound(fit.m.beta, kLag, 0.5);
-      problem.SetParameterLowerBound(fit.m.beta, kTimeOffset, -kMaxOffsetS);
-      problem.SetParameterUpperBound(fit.m.beta, kTimeOffset, kMaxOffsetS);
+      problem.SetParameterLowerBound(fit.m.beta, kTimeOffset, -max_offset_s_);
+      problem.SetParameterUpperBound(fit.m.beta, kTimeOffset, max_offset_s_);
       // A scan period is not negative: unbounded, MIT CSAIL's single fit went to -0.19 s and the
       // joint fit traded the period against the time offset (241 ms with 0.17 s, 147 ms alone).
       problem.SetParameterLowerBound(fit.m.beta, kDistortion, 0.0);
@@ -461,7 +481,8 @@ Fit Diagnoser::FitModel(const Model& start, const std::vector<int>& free,
       M += w * (scores[k] * scores[k - l].transpose() + scores[k - l] * scores[k].transpose());
     }
   }
-  M *= double(3 * fit.n_fit) / std::max(1, 3 * fit.n_fit - dim);
+  fit.dof = std::max(1, 3 * fit.n_fit - dim);
+  M *= double(3 * fit.n_fit) / fit.dof;
   const Eigen::VectorXd d = H.diagonal().cwiseMax(1e-300).cwiseSqrt();
   const Eigen::MatrixXd C = d.asDiagonal().inverse() * H * d.asDiagonal().inverse();
   Eigen::SelfAdjointEigenSolver<Eigen::MatrixXd> eig(C);
@@ -523,15 +544,15 @@ std::vector<Candidate> Diagnoser::Candidates() const {
 // Motion conditions per interval from the encoders and the baseline model.
 void Diagnoser::Conditions(DiagnoseReport* report) const {
   const Track& tr = track_;
-  const std::size_t n = tr.utime.size();
+  const std::size_t n = tr.size();
   std::vector<double> vx(n), om(n), xs(n), ys(n), route(n);
   double x = 0, y = 0, th = 0, dist = 0;
   for (std::size_t i = 0; i < n; ++i) {
-    double rates[2] = {tr.speed[i][0], tr.speed[i][1]}, steer[2] = {tr.steer[i][0], tr.steer[i][1]};
+    double rates[2] = {tr.speed[i][0], tr.speed[i][1]}, steer[2] = {tr.steer(i, 0), tr.steer(i, 1)};
     double vy = 0;
     generic::BodyDisplacement(tr.drive, baseline_.params, rates, steer, &vx[i], &vy, &om[i]);
     if (i > 0) {
-      const double dt = (tr.utime[i] - tr.utime[i - 1]) * 1e-6;
+      const double dt = (tr.utime(i) - tr.utime(i - 1)) * 1e-6;
       x += std::cos(th) * vx[i - 1] * dt;
       y += std::sin(th) * vx[i - 1] * dt;
       th += om[i - 1] * dt;
@@ -541,8 +562,8 @@ void Diagnoser::Conditions(DiagnoseReport* report) const {
   }
   const int steer_param = robot_.drive == DriveType::kTricycle ? 2 : robot_.drive == DriveType::kDualSteer ? 1 : -1;
   for (DiagnosedInterval& d : report->intervals) {
-    const auto i0 = std::size_t(std::lower_bound(tr.utime.begin(), tr.utime.end(), d.utime_start) - tr.utime.begin());
-    auto i1 = std::size_t(std::upper_bound(tr.utime.begin(), tr.utime.end(), d.utime_end) - tr.utime.begin());
+    const auto i0 = std::size_t(std::lower_bound(tr.utimes().begin(), tr.utimes().end(), d.utime_start) - tr.utimes().begin());
+    auto i1 = std::size_t(std::upper_bound(tr.utimes().begin(), tr.utimes().end(), d.utime_end) - tr.utimes().begin());
     i1 = i1 > 0 ? i1 - 1 : 0;
     const std::size_t a = std::min(i0, n - 1), b = std::max(std::min(i1, n - 1), a);
     MotionConditions& c = d.motion;
@@ -550,13 +571,13 @@ void Diagnoser::Conditions(DiagnoseReport* report) const {
     for (std::size_t i = a; i <= b; ++i) sv += vx[i], so += om[i];
     c.speed = sv / double(b - a + 1);
     c.turn_rate = so / double(b - a + 1);
-    const double span = std::max((tr.utime[b] - tr.utime[a]) * 1e-6, 1e-3);
+    const double span = std::max((tr.utime(b) - tr.utime(a)) * 1e-6, 1e-3);
     c.accel = b > a ? (vx[b] - vx[a]) / span : 0.0;
     c.turn_accel = b > a ? (om[b] - om[a]) / span : 0.0;
     c.centripetal = c.speed * c.turn_rate;
     if (steer_param >= 0) {
-      c.steer = 0.5 * (tr.steer[a][0] + tr.steer[b][0]) - baseline_.params[steer_param];
-      c.steer_rate = b > a ? (tr.steer[b][0] - tr.steer[a][0]) / span : 0.0;
+      c.steer = 0.5 * (tr.steer(a, 0) + tr.steer(b, 0)) - baseline_.params[steer_param];
+      c.steer_rate = b > a ? (tr.steer(b, 0) - tr.steer(a, 0)) / span : 0.0;
       c.steer_direction = int(tr.steer_sign[a][0]);
     }
     c.route_m = route[a];
@@ -580,7 +601,7 @@ double Diagnoser::Regressor(const std::string& name, const DiagnosedInterval& d,
   if (name.rfind("wheel_angle_", 0) == 0) {
     const int w = std::stoi(name.substr(12));
     const std::size_t mid = (it.model->first() + it.model->last()) / 2;
-    return std::fmod(std::fmod(track_.pos[mid][w], 2 * M_PI) + 2 * M_PI, 2 * M_PI);
+    return std::fmod(std::fmod(track_.pos(mid, w), 2 * M_PI) + 2 * M_PI, 2 * M_PI);
   }
   if (name == "speed") return c.speed;
   if (name == "turn_rate") return c.turn_rate;
@@ -1101,6 +1122,12 @@ DiagnoseReport Diagnoser::Run() {
   }
   const CalibrationResult& cal = *cal_plain;
   offset_start_ = cal_offset->time_offset->value;
+  if (cal_offset->time_offset_bound_s > max_offset_s_) {
+    // The intervals again, with room for the wider offset on the wheel data.
+    max_offset_s_ = cal_offset->time_offset_bound_s;
+    intervals_.clear();
+    BuildIntervals();
+  }
   Model start;
   for (int i = 0; i < num_params_; ++i) {
     start.params[i] = cal.params.at(names[i]).value;
@@ -1219,7 +1246,7 @@ DiagnoseReport Diagnoser::Select(const Model& start, const CalibrationResult& ca
   // The final model and what each chosen effect contributes.
   const Fit& current = fits.current();
   DescribeModel(f0, current, &report);
-  ReportFound(cands, selection, levels, current, log_n, &report);
+  ReportFound(cands, selection, levels, f0, current, log_n, &report);
   ReportCalibration(f0, current, cal, &report);
   report.candidates = verdicts.outcomes;
   TestRegions(cands, current, levels, &report);
@@ -1397,7 +1424,7 @@ void Diagnoser::DescribeModel(const Fit& f0, const Fit& current, DiagnoseReport*
 }
 
 void Diagnoser::ReportFound(const std::vector<Candidate>& cands, const Selection& selection,
-                            const SelectionLevels& levels, const Fit& current, double log_n,
+                            const SelectionLevels& levels, const Fit& f0, const Fit& current, double log_n,
                             DiagnoseReport* report) const {
   const int m_odo = levels.candidates, m_act = levels.actuation_candidates;
   for (std::size_t n = 0; n < selection.chosen.size(); ++n) {
@@ -1408,8 +1435,8 @@ void Diagnoser::ReportFound(const std::vector<Candidate>& cands, const Selection
     fe.wald = selection.wald[n];
     fe.p_value = selection.p[n];
     fe.p_adjusted = std::min(1.0, selection.p[n] * double(m_odo - n) * double(m_odo + m_act) / m_odo);
-    fe.delta_bic = DeltaBic(current.chi2_fit, without.chi2_fit, c.beta.size(), log_n);
-    if (c.beta[0] == kTimeOffset && std::abs(current.m.beta[kTimeOffset]) > 0.95 * kMaxOffsetS)
+    fe.delta_bic = DeltaBicAt(without, f0, current.chi2_fit, without.chi2_fit, c.beta.size(), log_n);
+    if (c.beta[0] == kTimeOffset && std::abs(current.m.beta[kTimeOffset]) > 0.95 * max_offset_s_)
       report->notes.push_back("the time offset is at its search bound: treat it as larger than shown");
     if (!c.catalogued) {
       Unexplained un;
@@ -1495,7 +1522,7 @@ StepTest Diagnoser::RecordingFits::TryAdd(int j) {
   for (int b : c.beta) startm.beta[b] = single_[j].m.beta[b];
   trials_[j] = d_.FitModel(startm, free, c.beta);
   const Fit& f = trials_[j];
-  return {f.p, f.wald, DeltaBic(f.chi2_fit, current_.chi2_fit, c.beta.size(), log_n_)};
+  return {f.p, f.wald, DeltaBicAt(current_, f0_, f.chi2_fit, current_.chi2_fit, c.beta.size(), log_n_)};
 }
 
 bool Diagnoser::RecordingFits::AddConfirmed(int j) { return d_.HeldoutConfirms(cands_[j], current_, trials_[j]); }

@@ -130,9 +130,9 @@ class Setpoints {
  public:
   Setpoints(const RobotDescription& robot, const Track& tr, const std::vector<DriveCommand>& commands, bool ramp)
       : commands_(commands), ramp_(ramp), period_us_(CommandPeriod(commands) * 1e6), nw_(tr.wheels) {
-    first_steer_ = {tr.steer[0][0], tr.steer[0][1]};
+    first_steer_ = {tr.steer(0, 0), tr.steer(0, 1)};
     const auto model = MakeDriveModel(robot);
-    std::array<double, 2> speed{0, 0}, steer{tr.steer[0][0], tr.steer[0][1]};
+    std::array<double, 2> speed{0, 0}, steer{tr.steer(0, 0), tr.steer(0, 1)};
     for (const DriveCommand& cmd : commands) {
       // What was in force when this command came (the previous one's ramp, or a lapse).
       if (!to_.empty()) {
@@ -189,18 +189,18 @@ class Setpoints {
 // held-out blocks.
 Series CommandSeries(const RobotDescription& robot, const Track& tr, const std::vector<DriveCommand>& commands,
                      double block_s, bool ramp) {
-  const std::size_t n = tr.utime.size();
+  const std::size_t n = tr.size();
   const Setpoints setpoints(robot, tr, commands, ramp);
   Series s;
   s.ramp = ramp;
   s.t.resize(n);
-  s.utime = tr.utime;
+  s.utime = tr.utimes();
   s.speed_cmd.assign(n, {0, 0});
   s.steer_cmd.assign(n, {0, 0});
   s.heldout.resize(n);
   s.chunk.resize(n);
   for (std::size_t i = 0; i < n; ++i) {
-    s.t[i] = (tr.utime[i] - tr.utime[0]) * 1e-6;
+    s.t[i] = (tr.utime(i) - tr.utime(0)) * 1e-6;
     s.heldout[i] = int64_t(s.t[i] / block_s) % 2 == 1;
     s.chunk[i] = int(s.t[i]);
     // The setpoint's mean over [t_i, t_i+1] (a command rarely arrives on an encoder sample: taking
@@ -208,7 +208,7 @@ Series CommandSeries(const RobotDescription& robot, const Track& tr, const std::
     // The steering angle is read, not integrated: its target over the interval is the setpoint
     // just before the interval's end (where the prediction is compared with the next reading; a
     // command stamped at that reading's time acts after it).
-    const double t0 = double(tr.utime[i]), t1 = i + 1 < n ? double(tr.utime[i + 1]) : t0;
+    const double t0 = double(tr.utime(i)), t1 = i + 1 < n ? double(tr.utime(i + 1)) : t0;
     s.speed_cmd[i] = {0, 0};
     for (int k = 0; k < kSubsamples; ++k) {
       const Setpoints::Point p = setpoints.At(t0 + (k + 0.5) / kSubsamples * (t1 - t0), setpoints.size());
@@ -232,7 +232,7 @@ std::vector<double> CommandRate(const Series& s, const std::vector<std::array<do
 
 // drive_lag. `s` and `tr` must outlive the layer.
 Layer DriveLagLayer(const Series& s, const Track& tr, const std::vector<DriveCommand>& commands) {
-  const std::size_t n = tr.utime.size();
+  const std::size_t n = tr.size();
   const int nw = tr.wheels;
   const int k = tr.smooth_k;
   Layer L;
@@ -323,20 +323,21 @@ double CommandedSteeringRate(const RobotDescription& robot, const Track& tr, con
 // steering_rate_limit, searched in log(rate). `s` and `tr` must outlive the layer.
 Layer SteeringRateLimitLayer(const RobotDescription& robot, const Series& s, const Track& tr,
                              const std::vector<DriveCommand>& commands) {
-  const std::size_t n = tr.utime.size();
+  const std::size_t n = tr.size();
   const int nw = tr.wheels;
   Layer L;
   L.name = "steering_rate_limit", L.key = "rate_rad_s", L.component = "steer";
   L.regressor_words = "commanded steering rate (rad/s)";
   L.use = {tr.steered[0], nw > 1 && tr.steered[1]};
-  L.measured = tr.steer;
+  L.measured.assign(n, {0, 0});
+  for (std::size_t i = 0; i < n; ++i) L.measured[i] = {tr.steer(i, 0), tr.steer(i, 1)};
   L.null_param = std::log(1e6), L.lo = std::log(0.02), L.hi = std::log(50.0);
   L.log_search = true;
   L.plausible_sigma = 1.0;  // in log(rate)
   L.predict = [&s, n, nw, &tr](double log_rate) {
     const double rate = std::exp(log_rate);
     std::vector<std::array<double, 2>> out(n, {0, 0});
-    std::array<double, 2> r{tr.steer[0][0], tr.steer[0][1]};
+    std::array<double, 2> r{tr.steer(0, 0), tr.steer(0, 1)};
     out[0] = r;
     for (std::size_t i = 0; i + 1 < n; ++i) {
       const double dt = s.t[i + 1] - s.t[i];

@@ -39,7 +39,7 @@ enum Beta {
 constexpr double kHistoryS = 2.0;   // steering history kept before an interval (lag <= 0.25 s)
 constexpr double kMaxOffsetS = kMaxTimeOffsetS;  // calibration.h
 
-// The encoder track with what the effect terms need per sample, in role order.
+// The encoder track (read in place) with what the effect terms need per sample, in role order.
 struct Track : EncoderTrack {
   Track() = default;
   explicit Track(EncoderTrack encoders) : EncoderTrack(std::move(encoders)) {}
@@ -177,7 +177,7 @@ class IntervalModel : public IntervalCost<IntervalModel> {
 
  private:
   double Slope(std::size_t i, int w) const {
-    return (tr_->steer[i + 1][w] - tr_->steer[i][w]) / (Time(i + 1) - Time(i));
+    return (tr_->steer(i + 1, w) - tr_->steer(i, w)) / (Time(i + 1) - Time(i));
   }
   // Body twist at time t (s from the interval's start) from the smoothed wheel speeds.
   template <typename T>
@@ -194,9 +194,9 @@ class IntervalModel : public IntervalCost<IntervalModel> {
   template <typename T>
   void Interp(std::size_t i, const T& t, int w, T* pos, T* steer, T* speed) const {
     const T f = Fraction(i, t);
-    *pos = Lerp(tr_->pos, i, w, f);
-    *steer = Lerp(tr_->steer, i, w, f);
-    *speed = Lerp(tr_->speed, i, w, f);
+    *pos = Lerp(tr_->pos(i, w), tr_->pos(i + 1, w), f);
+    *steer = Lerp(tr_->steer(i, w), tr_->steer(i + 1, w), f);
+    *speed = Lerp(tr_->speed[i][w], tr_->speed[i + 1][w], f);
   }
 
   const Track* tr_;             // the base's track, with the effect terms' per-sample data

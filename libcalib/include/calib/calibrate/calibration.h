@@ -44,6 +44,10 @@ const char* MotionSourceName(MotionSource source);
 // Search bound of a sensor-to-wheel time offset: real recordings show 0.02-0.4 s (the
 // Lego robot's 4 Hz streams 0.4 s, docs/mismatch.md).
 inline constexpr double kMaxTimeOffsetS = 0.5;
+// When the search's best lies at its bound, the offset may lie beyond it (the Lego robot's own
+// 0.43 s with every scan stamp 120 ms later: 0.55 s): the search is repeated over twice the
+// range, up to this bound.
+inline constexpr double kWidestTimeOffsetS = 2.0;
 
 struct CalibrationOptions {
   bool estimate_time_offset = false;
@@ -94,6 +98,7 @@ struct CalibrationResult {
   std::map<std::string, Estimate> params;
   Estimate mount_x, mount_y, mount_yaw;
   std::optional<Estimate> time_offset;  // when estimated
+  double time_offset_bound_s = 0.0;     // when estimated: the bound (+-) it was searched and fitted within
   std::optional<ImuEstimates> imu;      // source kImu (no mount_x/y/yaw then)
   std::map<std::string, double> closed_form;  // first estimate: params and mount_x/y/yaw
   std::string closed_form_note;               // why the closed form was not used, if so

@@ -72,15 +72,30 @@ double Scalar(const ceres::Jet<T, N>& x) {
   return x.a;
 }
 
-// The encoder samples of a recording in the model's terms, wheels in WheelRoles(drive) order.
-struct EncoderTrack {
+// The encoder samples of a recording in the model's terms: the drive, and the WheelTrack read in
+// place (a copy was the largest part of a long live solve's memory, docs/live.md), wheels in
+// WheelRoles(drive) order; pos() and steer() of w >= wheels (the second of the two wheels the
+// models allow, on a drive with one) are 0. The WheelTrack must outlive the view and stay
+// unchanged while it is used.
+class EncoderTrack {
+ public:
+  EncoderTrack() = default;
+  EncoderTrack(DriveType drive, const WheelTrack& samples)
+      : drive(drive), wheels(static_cast<int>(WheelRoles(drive).size())), samples_(&samples) {}
+
   DriveType drive = DriveType::kDifferential;
   int wheels = 0;
-  std::vector<int64_t> utime;
-  std::vector<std::array<double, 2>> pos, steer;  // accumulated rotation, steering reading (rad)
-};
 
-EncoderTrack MakeEncoderTrack(DriveType drive, const WheelTrack& wheels);
+  std::size_t size() const { return samples_ ? samples_->size() : 0; }
+  const std::vector<int64_t>& utimes() const { return samples_->utimes(); }
+  int64_t utime(std::size_t i) const { return samples_->utime(i); }
+  // Accumulated rotation and steering reading of wheel w at sample i (rad).
+  double pos(std::size_t i, int w) const { return w < wheels ? samples_->position(i, w) : 0.0; }
+  double steer(std::size_t i, int w) const { return w < wheels ? samples_->steer(i, w) : 0.0; }
+
+ private:
+  const WheelTrack* samples_ = nullptr;
+};
 
 // The residual of one interval (the functor Ceres differentiates), the comparison written once
 // for every model. `Model` derives from it and says how the body motion q is predicted:
@@ -136,11 +151,11 @@ class IntervalCost {
  protected:
 
   // Time of sample i, s from the interval's start stamp.
-  double Time(std::size_t i) const { return (track_->utime[i] - t0_) * 1e-6; }
+  double Time(std::size_t i) const { return (track_->utime(i) - t0_) * 1e-6; }
 
   // Index i of the segment [Time(i), Time(i+1)] that holds t, clamped to the interval's samples.
   std::size_t Segment(double t) const {
-    const auto begin = track_->utime.begin();
+    const auto begin = track_->utimes().begin();
     const auto it = std::upper_bound(begin + first_, begin + last_ + 1, t,
                                      [this](double t, int64_t utime) { return t < (utime - t0_) * 1e-6; });
     const std::size_t i = it == begin + first_ ? first_ : std::size_t(it - begin) - 1;
@@ -153,10 +168,10 @@ class IntervalCost {
     return (t - Time(i)) / (Time(i + 1) - Time(i));
   }
 
-  // Wheel w's `values` at fraction f of segment i.
+  // The value at fraction f of a segment from `start` to `end`.
   template <typename T>
-  static T Lerp(const std::vector<std::array<double, 2>>& values, std::size_t i, int w, const T& f) {
-    return values[i][w] + f * (values[i + 1][w] - values[i][w]);
+  static T Lerp(double start, double end, const T& f) {
+    return start + f * (end - start);
   }
 
   const EncoderTrack* track_;
@@ -200,8 +215,8 @@ class DriveIntervalCost : public IntervalCost<DriveIntervalCost> {
       } else {
         ++i;
         for (int w = 0; w < wheels; ++w) {
-          pos[w] = T(track_->pos[i][w]);
-          steer[w] = T(track_->steer[i][w]);
+          pos[w] = T(track_->pos(i, w));
+          steer[w] = T(track_->steer(i, w));
         }
       }
       T rotation[2], mean_steer[2];
@@ -220,8 +235,8 @@ class DriveIntervalCost : public IntervalCost<DriveIntervalCost> {
   void Interpolate(std::size_t i, const T& t, T* pos, T* steer) const {
     const T f = Fraction(i, t);
     for (int w = 0; w < track_->wheels; ++w) {
-      pos[w] = Lerp(track_->pos, i, w, f);
-      steer[w] = Lerp(track_->steer, i, w, f);
+      pos[w] = Lerp(track_->pos(i, w), track_->pos(i + 1, w), f);
+      steer[w] = Lerp(track_->steer(i, w), track_->steer(i + 1, w), f);
     }
   }
 };

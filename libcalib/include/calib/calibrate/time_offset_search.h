@@ -16,7 +16,9 @@
 // cost. The cost of an offset is the trimmed mean of the 75 % smallest squared residuals (large
 // residuals of a wrong offset, failed matches and unmodelled effects cannot pull it), on a 1 ms
 // grid over [-max, max], then on a 0.05 ms grid around the best point. The heading and distance
-// do not depend on the sensor's mount to first order, so the search needs no mount.
+// do not depend on the sensor's mount to first order, so the search needs no mount. Calibrate
+// repeats the search (and its fit) over twice the range when the best lies at the bound
+// (calibration.h kWidestTimeOffsetS).
 
 #include <vector>
 
