@@ -235,7 +235,7 @@ int Run(int argc, char** argv) {
   // back when freed: glibc would otherwise raise its mmap and trim thresholds to the largest block
   // freed so far and keep up to twice that in the heap (docs/live.md, "Memory over long runs").
   // One arena: the intermediate solves run on a worker thread, whose own arena kept the pages of
-  // its last solve while the final one grew the main arena (soak: peak 21.9 -> 18.0 MB above start).
+  // its last solve while the final one grew the main arena (soak: peak 21.9 -> 17.6 MB above the start, docs/live.md).
   mallopt(M_MMAP_THRESHOLD, 256 * 1024);
   mallopt(M_TRIM_THRESHOLD, 1024 * 1024);
   mallopt(M_ARENA_MAX, 1);

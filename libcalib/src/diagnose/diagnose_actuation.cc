@@ -365,11 +365,16 @@ Layer SteeringRateLimitLayer(const RobotDescription& robot, const Series& s, con
   return L;
 }
 
+// The layer's parameter (in its search variable) that best predicts the samples `keep` selects.
+double FitParameter(const Layer& L, const Series& s, const std::function<bool(std::size_t)>& keep) {
+  return GridGoldenMin([&](double x) { return Sse(L, L.predict(x), s, keep); }, L.lo, L.hi);
+}
+
 // n log(SSE / n) on the fit blocks at the layer's best parameter there (a Gaussian
 // log-likelihood up to constants, comparable between setpoint profiles).
 double FitLogSse(const Layer& L, const Series& s) {
   auto keep = [&](std::size_t i) { return !s.heldout[i]; };
-  const double best = GridGoldenMin([&](double x) { return Sse(L, L.predict(x), s, keep); }, L.lo, L.hi);
+  const double best = FitParameter(L, s, keep);
   std::size_t n = 0;
   for (std::size_t i = 0; i < s.t.size(); ++i) n += keep(i) * (int(L.use[0]) + int(L.use[1]));
   return n * std::log(std::max(Sse(L, L.predict(best), s, keep), 1e-300) / std::max<std::size_t>(n, 1));
@@ -400,11 +405,8 @@ double AutocorrelationTime(const std::vector<double>& r, double rms) {
 
 LayerTest TestLayer(const Layer& L, const Series& s) {
   const std::size_t n = s.t.size();
-  auto fit_on = [&](const std::function<bool(std::size_t)>& keep) {
-    return GridGoldenMin([&](double x) { return Sse(L, L.predict(x), s, keep); }, L.lo, L.hi);
-  };
   LayerTest out;
-  out.est = fit_on([&](std::size_t i) { return !s.heldout[i]; });
+  out.est = FitParameter(L, s, [&](std::size_t i) { return !s.heldout[i]; });
   out.before = L.predict(L.null_param), out.after = L.predict(out.est);
   // Test on the held-out blocks: the drop of the squared error in units of the noise left
   // after the effect, with the samples counted as independent only once per correlation time.
