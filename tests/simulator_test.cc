@@ -781,6 +781,26 @@ TEST(SimulatorTest, DriveLagIsFirstOrder) {
   EXPECT_GT(checked, 100);
 }
 
+// A lag shorter than the integration step still delays the travel by tau: the wheel turns over
+// each step at the lag's mean speed. (With the step's end speed, a 4 ms lag on an 8 ms step
+// delayed it by dt e^(-dt/tau) / (1 - e^(-dt/tau)) = 1.25 ms, and the diagnosis found that.)
+TEST(SimulatorTest, DriveLagShorterThanThePhysicsStepDelaysTheTravelByTau) {
+  const double tau = 0.004, vx = 0.3;
+  double travelled[2];
+  for (const bool lag : {false, true}) {
+    Simulator sim(Parse(std::string(kDiffStraight) + "physics_step: 0.008\n" +
+                        (lag ? "effects: {drive_lag: {tau_s: 0.004}}\n" : "")));
+    MemorySink sink;
+    const int64_t t_step = kStart + Us(0.2);  // on the 8 ms grid
+    sim.AdvanceTo(t_step, &sink);
+    sim.ApplyCommand(TwistCommand(vx, 0.0));
+    sim.AdvanceTo(t_step + Us(0.4), &sink);
+    travelled[lag] = sim.true_pose().x;
+  }
+  const double speed = travelled[0] / 0.4;  // the true speed (true radii, nominal commands)
+  EXPECT_NEAR((travelled[0] - travelled[1]) / speed, tau, 0.02 * tau);
+}
+
 // commands.between: ramp: the setpoint moves linearly from the one in force to the new
 // command over one command period (1 / commands.rate), then holds; hold steps at once.
 TEST(SimulatorTest, RampedSetpointReachesTheCommandOverOneCommandPeriod) {
