@@ -225,6 +225,27 @@ TEST(HeldoutWindows, SignTestIsTheExactBinomial) {
   EXPECT_NEAR(c.sign_test_p, 2.0 / 32768.0, 1e-12);
 }
 
+TEST(Statistics, NoncentralChiSquareTailAndItsPower) {
+  // One degree of freedom: (Z + sqrt(lambda))^2, whose tail is two normal tails.
+  auto phi_upper = [](double z) { return 0.5 * std::erfc(z / std::sqrt(2.0)); };
+  for (double lambda : {0.0, 1.0, 9.0, 25.0, 400.0}) {
+    const double c = 10.0;
+    const double exact = phi_upper(std::sqrt(c) - std::sqrt(lambda)) + phi_upper(std::sqrt(c) + std::sqrt(lambda));
+    EXPECT_NEAR(NoncentralChiSquareUpperTail(c, 1, lambda), exact, 1e-9) << lambda;
+  }
+  // Two degrees of freedom and no noncentrality: exp(-x / 2).
+  EXPECT_NEAR(NoncentralChiSquareUpperTail(5.0, 2, 0.0), std::exp(-2.5), 1e-12);
+  EXPECT_NEAR(ChiSquareUpperQuantile(std::exp(-2.5), 2), 5.0, 1e-8);
+  EXPECT_NEAR(ChiSquareUpperQuantile(0.05, 1), 3.841459, 1e-5);
+  // Power 0.8 at the level 0.01 / 9: one degree needs z(level / 2) + z(0.2) standard errors
+  // (the other tail is negligible), two degrees more.
+  const double level = 0.01 / 9, c1 = ChiSquareUpperQuantile(level, 1), c2 = ChiSquareUpperQuantile(level, 2);
+  const double lambda1 = NoncentralityForPower(c1, 1, 0.8), lambda2 = NoncentralityForPower(c2, 2, 0.8);
+  EXPECT_NEAR(NoncentralChiSquareUpperTail(c2, 2, lambda2), 0.8, 1e-8);
+  EXPECT_NEAR(std::sqrt(lambda1), std::sqrt(c1) + 0.841621, 1e-4);
+  EXPECT_GT(lambda2, 1.15 * lambda1);
+}
+
 // On a simulated recording whose nominal values differ from the truth, the calibrated model
 // beats the nominal one on the held-out half in nearly every window, beyond chance, and the
 // held-out half's larger steering angles are reported.

@@ -12,6 +12,47 @@ double ChiSquareUpperTail(double x, int dof) {
   return x <= 0 ? 1.0 : Eigen::numext::igammac(0.5 * dof, 0.5 * x);
 }
 
+double ChiSquareUpperQuantile(double p, int dof) {
+  double lo = 0, hi = 1;
+  while (ChiSquareUpperTail(hi, dof) > p && hi < 1e6) hi *= 2;
+  for (int i = 0; i < 200 && hi - lo > 1e-12 * hi; ++i) {
+    const double mid = 0.5 * (lo + hi);
+    (ChiSquareUpperTail(mid, dof) > p ? lo : hi) = mid;
+  }
+  return 0.5 * (lo + hi);
+}
+
+double NoncentralChiSquareUpperTail(double x, int dof, double lambda) {
+  if (!(lambda > 0)) return ChiSquareUpperTail(x, dof);
+  // A Poisson(lambda / 2) mixture of central chi-squares with dof + 2 j degrees of freedom,
+  // summed out from the Poisson's mode until the weights are negligible.
+  const double mu = 0.5 * lambda;
+  const int mode = static_cast<int>(mu);
+  auto weight = [&](int j) { return std::exp(j * std::log(mu) - mu - std::lgamma(j + 1.0)); };
+  double sum = 0;
+  for (int j = mode; j >= 0; --j) {
+    const double w = weight(j);
+    sum += w * ChiSquareUpperTail(x, dof + 2 * j);
+    if (w < 1e-16 && j < mode) break;
+  }
+  for (int j = mode + 1;; ++j) {
+    const double w = weight(j);
+    sum += w * ChiSquareUpperTail(x, dof + 2 * j);
+    if (w < 1e-16) break;
+  }
+  return std::min(1.0, sum);
+}
+
+double NoncentralityForPower(double x, int dof, double power) {
+  double lo = 0, hi = 1;
+  while (NoncentralChiSquareUpperTail(x, dof, hi) < power && hi < 1e8) hi *= 2;
+  for (int i = 0; i < 200 && hi - lo > 1e-10 * hi; ++i) {
+    const double mid = 0.5 * (lo + hi);
+    (NoncentralChiSquareUpperTail(x, dof, mid) < power ? lo : hi) = mid;
+  }
+  return 0.5 * (lo + hi);
+}
+
 EstimateDifference CompareEstimates(const Eigen::VectorXd& delta, const Eigen::MatrixXd& sum,
                                     const std::vector<std::string>& names) {
   EstimateDifference d;

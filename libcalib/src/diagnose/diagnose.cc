@@ -155,6 +155,7 @@ struct Fit {
   int n_fit = 0, n_heldout = 0;
   int dof = 1;                 // 3 n_fit less the parameters fitted
   Eigen::MatrixXd cov;         // robust covariance of the free effect parameters
+  Eigen::MatrixXd info_cov;    // the same from the information alone (H^-1: independent residuals)
   double wald = 0, p = 1;      // of the free effect parameters named in `tested`
   std::vector<int> tested;
 };
@@ -494,6 +495,7 @@ Fit Diagnoser::FitModel(const Model& start, const std::vector<int>& free,
   const Eigen::MatrixXd full = Hinv * M * Hinv;
   const int nb = static_cast<int>(free.size());
   fit.cov = full.block(np + 3, np + 3, nb, nb);
+  fit.info_cov = Hinv.block(np + 3, np + 3, nb, nb);
   if (!tested.empty()) {
     std::vector<int> idx;
     for (int t : tested) idx.push_back(int(std::find(free.begin(), free.end(), t) - free.begin()));
@@ -1321,9 +1323,15 @@ std::vector<SingleFit> Diagnoser::SingleFigures(const std::vector<Candidate>& ca
     s.name = c.name, s.layer = c.layer, s.wheel = c.wheel;
     s.p = f.p;
     s.delta_bic = DeltaBic(f.chi2_fit, f0.chi2_fit, c.beta.size(), log_n);
-    double var = 0;
-    for (std::size_t i = 0; i < c.beta.size(); ++i) var += f.cov(i, i) / c.beta.size();
+    double var = 0, info_var = 0;
+    for (std::size_t i = 0; i < c.beta.size(); ++i) {
+      var += f.cov(i, i) / c.beta.size();
+      info_var += f.info_cov(i, i) / c.beta.size();
+    }
     const double sigma = std::sqrt(std::max(var, 0.0));
+    s.params = static_cast<int>(c.beta.size());
+    s.bic_drop = c.beta.size() * log_n;
+    s.information_std = std::sqrt(std::max(info_var, 0.0));
     s.estimate = {c.beta.size() == 2 ? std::hypot(f.m.beta[c.beta[0]], f.m.beta[c.beta[1]]) : f.m.beta[c.beta[0]], sigma};
     s.plausible = c.plausible;
     s.excitation = c.excitation;

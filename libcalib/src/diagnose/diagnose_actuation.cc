@@ -387,6 +387,7 @@ struct LayerTest {
   double rms_b = 0, rms_a = 0;  // held-out RMS residual without and with
   double t = 0, p = 1, gain = 0;
   double sigma = INFINITY;  // standard error of `est`
+  double tau_int = 1;       // correlation time of the held-out residual left, samples
 };
 
 // Integrated autocorrelation time, in samples, of a residual of RMS `rms`.
@@ -420,7 +421,7 @@ LayerTest TestLayer(const Layer& L, const Series& s) {
     }
   }
   const double rms_b = out.rms_b = Rms(rb), rms_a = out.rms_a = Rms(ra);
-  const double tau_int = AutocorrelationTime(ra, rms_a);  // of the remaining residual, samples
+  const double tau_int = out.tau_int = AutocorrelationTime(ra, rms_a);  // of the remaining residual, samples
   const double sigma2 = std::max(rms_a * rms_a, 1e-300);
   const double lr = ra.empty() ? 0.0 : (rms_b * rms_b - rms_a * rms_a) * ra.size() / sigma2 / tau_int;
   out.t = lr > 0 ? std::sqrt(lr) : 0.0;
@@ -595,14 +596,37 @@ void DiagnoseActuation(const RobotDescription& robot, const DiagnoseData& data,
   const int chosen = score[1] < score[0] ? 1 : 0;
   const Series& s = profiles[chosen];
   const std::vector<Layer>& layers = layer_sets[chosen];
+  std::vector<LayerTest> tests;
+  for (const Layer& L : layers) tests.push_back(TestLayer(L, s));
+  // Whether the data tell the profiles apart: the gap of the drive layer's log-likelihoods, its
+  // samples counted once per correlation time, at the level of the actuation tests. Where the
+  // controller's tick is coarse against the command period (an 8.1 ms step, 32.5 Hz ramped
+  // commands: four steps a ramp) a held setpoint behind a lag of half a command period fits a
+  // ramp about as well, and a drive lag found under the chosen profile alone is that lead.
+  const double gap = std::abs(score[0] - score[1]) / std::max(tests[0].tau_int, 1.0);
+  const bool told_apart = gap > ChiSquareUpperQuantile(alpha_share / m, 1);
+  per_layer << " profiles told apart: " << (told_apart ? "yes" : "no") << ", gap " << gap
+            << " per correlation time of " << tests[0].tau_int << " samples;";
   report->notes.push_back(std::string("actuation: the setpoint ") +
                           (chosen ? "ramps between DRIVE_CMD messages" : "is held from one DRIVE_CMD to the next") +
                           " (chosen by the fit: log SSE " + std::to_string(score[0]) + " held, " +
                           std::to_string(score[1]) + " ramped;" + per_layer.str() + ")");
-  for (const Layer& L : layers) {
-    const LayerTest test = TestLayer(L, s);
+  for (std::size_t l = 0; l < layers.size(); ++l) {
+    const Layer& L = layers[l];
+    const LayerTest& test = tests[l];
     CandidateOutcome o;
-    const bool significant = JudgeLayer(L, test, m, options.alpha, alpha_share, &o);
+    bool significant = JudgeLayer(L, test, m, options.alpha, alpha_share, &o);
+    if (significant && !told_apart) {
+      CandidateOutcome other;
+      const Layer& L_other = layer_sets[1 - chosen][l];
+      if (!JudgeLayer(L_other, TestLayer(L_other, profiles[1 - chosen]), m, options.alpha, alpha_share, &other)) {
+        significant = false;
+        o.status = CandidateStatus::kNotSignificant;
+        o.note = std::string("found only with the setpoint ") + (chosen ? "ramped" : "held") +
+                 ", which the data do not tell from " + (chosen ? "held" : "ramped") +
+                 " setpoints (the other profile's fit: " + (other.note.empty() ? "not significant" : other.note) + ")";
+      }
+    }
     report->candidates.push_back(o);
     report->actuation.push_back(LayerTrace(robot, L, s, test, significant));
     if (significant) report->effects.push_back(DescribeLayer(L, s, test, o));

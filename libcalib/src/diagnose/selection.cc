@@ -4,6 +4,7 @@
 #include <cmath>
 #include <sstream>
 
+#include "calib/core/statistics.h"
 #include "calib/core/units.h"
 #include "diagnose/diagnose_internal.h"
 
@@ -11,6 +12,22 @@ namespace calib::diag {
 
 double DetectableZ(const SelectionLevels& levels) {
   return NormalUpper(levels.alpha / levels.candidates / 2) + NormalUpper(0.2);
+}
+
+double DetectableSize(const SingleFit& f, const SelectionLevels& levels) {
+  const double sigma = f.estimate.std;
+  if (!(sigma > 0)) return 0.0;
+  // Both tests are on |estimate|^2: the Wald statistic in units of sigma^2, the chi-square drop
+  // in units of information_std^2. In the Wald statistic's units the drop's threshold is
+  // bic_drop (information_std / sigma)^2; the larger threshold decides.
+  const double ratio = f.information_std > 0 ? f.information_std / sigma : 0.0;
+  const double bic_level = f.bic_drop * ratio * ratio;
+  // One degree of freedom: the normal form of DetectableZ (its other tail is negligible).
+  if (f.params == 1)
+    return (std::max(NormalUpper(levels.alpha / levels.candidates / 2), std::sqrt(bic_level)) + NormalUpper(0.2)) *
+           sigma;
+  const double wald_level = ChiSquareUpperQuantile(levels.alpha / levels.candidates, f.params);
+  return std::sqrt(NoncentralityForPower(std::max(wald_level, bic_level), f.params, 0.8)) * sigma;
 }
 
 double DeltaBic(double chi2_with, double chi2_without, std::size_t params, double log_n) {
@@ -34,7 +51,7 @@ SingleVerdicts JudgeSingles(const std::vector<SingleFit>& fits, const SelectionL
     o.p_adjusted = std::min(1.0, p_adj[j] * double(m_odo + m_act) / m_odo);
     o.delta_bic = f.delta_bic;
     o.estimate = f.estimate;
-    o.detectable = DetectableZ(levels) * f.estimate.std;
+    o.detectable = DetectableSize(f, levels);
     // The Wald statistic rests on a linearisation and a robust variance; where the model is
     // far from linear in the parameter (a lag near its bound) or the regressor acts on a few
     // intervals only (their variance estimated from a handful of residuals), it can overstate

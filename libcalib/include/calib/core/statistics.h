@@ -20,6 +20,17 @@ struct Estimate {
 // P(chi2 > x) with `dof` degrees of freedom.
 double ChiSquareUpperTail(double x, int dof);
 
+// The x with P(chi2 > x) = p, `dof` degrees of freedom.
+double ChiSquareUpperQuantile(double p, int dof);
+
+// P(chi2 > x) for a noncentral chi-square, `dof` degrees of freedom and noncentrality `lambda`
+// (the sum of the squared means of the unit-variance normals).
+double NoncentralChiSquareUpperTail(double x, int dof, double lambda);
+
+// The noncentrality at which a test rejecting above `x` (`dof` degrees of freedom) has the
+// given power: the squared size, in standard errors, that it detects that often.
+double NoncentralityForPower(double x, int dof, double power);
+
 // Two estimates of the same values compared: `delta` their difference (angles wrapped),
 // `sum` the sum of their covariances, `names` the values' names. d2 is the squared
 // Mahalanobis distance, a chi-square with one degree per value (infinite when `sum` cannot

@@ -27,6 +27,11 @@ struct SingleFit {
   double p = 1;            // of its Wald statistic (before Holm's correction)
   double delta_bic = 0;    // BIC on the fit blocks with it, less without it
   ParamEstimate estimate;  // its size (the norm of a two-parameter effect) and the std
+  int params = 1;          // its parameters: the Wald test's degrees of freedom
+  // The BIC gate asks the fit blocks' chi-square to drop by `bic_drop` (params log n), and it
+  // drops by (size / information_std)^2, the std from the fit blocks' information alone
+  // (independent residuals). 0: not known, the detectable size is then the Wald test's alone.
+  double bic_drop = 0, information_std = 0;
   double plausible = 0;    // largest size a real robot plausibly shows
   std::string excitation;  // motion that excites it
   bool heldout_confirmed = false;  // the held-out blocks confirm it (score test or drift)
@@ -51,6 +56,13 @@ SingleVerdicts JudgeSingles(const std::vector<SingleFit>& fits, const SelectionL
 
 // The size at which a candidate of standard error 1 is detected (level, power 0.8).
 double DetectableZ(const SelectionLevels& levels);
+
+// A single candidate's minimum detectable size (CandidateOutcome::detectable): the size found
+// with power 0.8 by both gates it must pass, its Wald test (`f.params` degrees of freedom at the
+// Holm level of the first step) and the BIC gate, whose chi-square drop counts the residuals
+// as independent: where neighbouring intervals' errors cancel (they share a scan) the robust
+// std is the smaller, and the Wald test alone claimed sizes the BIC gate rejects.
+double DetectableSize(const SingleFit& f, const SelectionLevels& levels);
 
 // BIC with `params` more parameters, less BIC without them (negative: they pay for themselves).
 double DeltaBic(double chi2_with, double chi2_without, std::size_t params, double log_n);
