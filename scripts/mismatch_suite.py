@@ -262,12 +262,15 @@ def own_multiplier(rep, case):
     """The effect's size over the detectable size this recording's own REPORT.json states for it.
 
     The drive's median (the drawn multiplier) stands for recordings whose sensors were drawn
-    differently; the recording's own figure is the tool's claim for those very sensors. The rate
-    limit's size is 1 / rate, not its parameter, so it keeps the drawn multiplier."""
-    if not case or case[0] == "steering_rate_limit":
-        return case[2] if case else None
+    differently; the recording's own figure is the tool's claim for those very sensors. A steering
+    rate limit shows the more the lower it is: its `detectable` is the highest rate the recording
+    can tell from the commands' own ramp, so its multiplier is that rate over the true one."""
+    if not case:
+        return None
     det = next((c.get("detectable") for c in rep.get("candidates", []) if c["name"] == case[0]), None)
-    return abs(case[1]) / det if det else case[2]
+    if not det or not math.isfinite(det):
+        return case[2]
+    return det / abs(case[1]) if case[0] == "steering_rate_limit" else abs(case[1]) / det
 
 
 def random_suite(args, drives, pool):
