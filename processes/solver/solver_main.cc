@@ -150,9 +150,9 @@ class Solver {
   // The second pass on the recording's scans. lcm-logger writes the recording behind the bus
   // (it flushes when a message comes 100 ms after its last flush): when the recording's wheel
   // data end before this solver's, it is read once more, a second and a flush later (a pass on
-  // an hour of data takes half a minute). A recording that lacks wheel states the solver
-  // received (lcm-logger lost them on an overloaded machine), or that cannot be read, is said
-  // on stderr; the latter leaves the first pass's result.
+  // an hour of data takes half a minute, repeated up to kMaxDeskewedPasses times). A recording
+  // that lacks wheel states the solver received (lcm-logger lost them on an overloaded machine),
+  // or that cannot be read, is said on stderr; the latter leaves the first pass's result.
   calib::CalibrationResult SolveAgain(const calib::CalibrationResult& first) {
     if (recording_.empty()) {
       std::cerr << "agvcal-solver: no recording (--catch-up) to match the scans again from: the time offset "

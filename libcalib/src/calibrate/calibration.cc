@@ -134,10 +134,10 @@ OdometryError HeldoutOdometry(const std::vector<Interval>& intervals, const Stat
   return OdometryErrorOverWindows(HeldoutSteps(intervals, state), window_s, keep_partial);
 }
 
-// The motions the encoders cover (with `margin_us` either side), in stamp order; the others
-// are counted in `summary`.
+// The motions the encoders cover at the time offset `center_us` (a stamp t read at wheel time
+// t - center) with `margin_us` either side, in stamp order; the others are counted in `summary`.
 std::vector<const SensorMotion*> UsableMotions(const WheelTrack& wheels,
-                                               const std::vector<SensorMotion>& motions,
+                                               const std::vector<SensorMotion>& motions, double center_us,
                                                double margin_us, ResidualSummary* summary) {
   std::vector<const SensorMotion*> usable;
   for (const SensorMotion& m : motions) {
@@ -145,7 +145,7 @@ std::vector<const SensorMotion*> UsableMotions(const WheelTrack& wheels,
       ++summary->invalid;
     } else if (m.degenerate) {
       ++summary->degenerate;
-    } else if (!wheels.Covers(m.utime_start - margin_us, m.utime_end + margin_us)) {
+    } else if (!wheels.Covers(m.utime_start - center_us - margin_us, m.utime_end - center_us + margin_us)) {
       ++summary->invalid;
     } else {
       usable.push_back(&m);
@@ -531,6 +531,28 @@ void RefuseUndetermined(DriveType drive, const State& nominal, const std::vector
   result->weak.insert(result->weak.end(), refused.begin(), refused.end());
 }
 
+// Room the joint fit has around the searched offset: each interval's encoder data reach this
+// far beyond its ends at that offset.
+constexpr double kOffsetRoomS = 0.25;
+
+// The global search's offset (time_offset_search.h) on the first `fit_fraction` of the valid
+// motions, with the robot file's drive parameters. Nothing in it depends on where the offset
+// lies in the range searched (the search's intervals and scales did, and its drive parameters,
+// the closed form's at offset 0), so shifting every sensor stamp moves it by the shift (issue 16:
+// the Lego robot's scans shifted by +-120 ms moved solve's offset by +106 and -101 ms). Searched
+// again with the closed form's parameters at the offset found, it ended further from the truth
+// on the simulated differential drive (185.6 ms for 200 ms, first pass), so it is searched once.
+double SearchedOffset(const RobotDescription& robot, const State& nominal, const WheelTrack& wheels,
+                      const std::vector<SensorMotion>& motions, const CalibrationOptions& options) {
+  std::vector<SensorMotion> fit;
+  for (const SensorMotion& m : motions)
+    if (m.valid && !m.degenerate && m.utime_end > m.utime_start) fit.push_back(m);
+  std::stable_sort(fit.begin(), fit.end(),
+                   [](const SensorMotion& a, const SensorMotion& b) { return a.utime_start < b.utime_start; });
+  fit.resize(static_cast<std::size_t>(std::floor(fit.size() * std::clamp(options.fit_fraction, 0.0, 1.0))));
+  return SearchTimeOffset(robot.drive, nominal.params, wheels, fit, options.max_time_offset_s).offset_s;
+}
+
 }  // namespace
 
 CalibrationResult Calibrate(const RobotDescription& robot, const WheelTrack& wheels,
@@ -543,9 +565,16 @@ CalibrationResult Calibrate(const RobotDescription& robot, const WheelTrack& whe
   const int num_params = static_cast<int>(result.param_names.size());
   const bool with_offset = options.estimate_time_offset;
 
-  // Intervals the encoders cover (with room for the time offset), in stamp order.
-  const double margin_us = with_offset ? options.max_time_offset_s * 1e6 : 0.0;
-  const std::vector<const SensorMotion*> usable = UsableMotions(wheels, motions, margin_us, &result.residual);
+  // With the offset: the global search first, then the intervals the encoders cover with room
+  // for the joint fit around its offset (stamp order), their closed form at that offset and the
+  // joint fit from there (global before local: the offset's cost has minima an encoder or scan
+  // period apart and a basin as wide as the motion's bandwidth, time_offset_search.h).
+  const State nominal = StateOf(robot, source);
+  const double center_s = with_offset ? SearchedOffset(robot, nominal, wheels, motions, options) : 0.0;
+  const double center_us = std::round(center_s * 1e6);
+  if (with_offset) result.time_offset_bound_s = options.max_time_offset_s;
+  const std::vector<const SensorMotion*> usable =
+      UsableMotions(wheels, motions, center_us, with_offset ? kOffsetRoomS * 1e6 : 0.0, &result.residual);
   const std::size_t num_fit =
       static_cast<std::size_t>(std::floor(usable.size() * std::clamp(options.fit_fraction, 0.0, 1.0)));
   if (num_fit < 20) {
@@ -558,24 +587,20 @@ CalibrationResult Calibrate(const RobotDescription& robot, const WheelTrack& whe
   }
 
   const EncoderTrack track(robot.drive, wheels);
+  // Each interval's encoder samples reach over every offset the fit may take.
+  const double margin_us = with_offset ? (options.max_time_offset_s + kOffsetRoomS) * 1e6 : 0.0;
   std::vector<Interval> intervals;
   std::vector<MotionInterval> closed_form_input;
   for (std::size_t k = 0; k < usable.size(); ++k) {
     const SensorMotion& m = *usable[k];
     intervals.push_back(MakeInterval(track, num_params, m, margin_us, k >= num_fit));
-    if (k < num_fit) closed_form_input.push_back({&wheels, m.utime_start, m.utime_end, m.delta});
+    if (k < num_fit) {
+      closed_form_input.push_back({&wheels, m.utime_start - int64_t(center_us), m.utime_end - int64_t(center_us),
+                                   m.delta});
+    }
   }
-
-  const State nominal = StateOf(robot, source);
   State state = FirstEstimate(robot, nominal, closed_form_input, &result);
-  if (with_offset) {
-    // Global before local: the offset's cost has minima an encoder or scan period apart and a
-    // basin as wide as the motion's bandwidth (time_offset_search.h).
-    std::vector<SensorMotion> fit_motions;
-    for (std::size_t k = 0; k < num_fit; ++k) fit_motions.push_back(*usable[k]);
-    state.offset[0] = SearchTimeOffset(robot.drive, state.params, wheels, fit_motions, options.max_time_offset_s).offset_s;
-    result.time_offset_bound_s = options.max_time_offset_s;
-  }
+  state.offset[0] = center_s;
   const double search_offset = state.offset[0];
   const double scale = RobustFit(intervals, num_params, options, &state);
   // The search's or the fit's offset at the bound (within the fine grid's reach): search and
@@ -617,7 +642,7 @@ OdometryError EvaluateOdometry(const RobotDescription& robot, MotionSource sourc
   const int num_params = static_cast<int>(ParamNames(robot.drive).size());
   const EncoderTrack track(robot.drive, wheels);
   std::vector<Interval> intervals;
-  for (const SensorMotion* m : UsableMotions(wheels, motions, 0.0, &ignored))
+  for (const SensorMotion* m : UsableMotions(wheels, motions, 0.0, 0.0, &ignored))
     intervals.push_back(MakeInterval(track, num_params, *m, 0.0, true /* heldout */));
   return HeldoutOdometry(intervals, StateOf(robot, source), window_s, true /* keep_partial */);
 }

@@ -141,15 +141,22 @@ CalibrationResult SolveAgainDeskewed(const RobotDescription& robot, const std::s
                                      const CalibrationResult& first, const CalibrationOptions& options,
                                      const std::string& origin, SecondPassInput* read) {
   if (!first.time_offset) throw std::logic_error("SolveAgainDeskewed: the first pass has no time offset");
-  const RobotDescription deskew = Calibrated(robot, first);
-  const CalibrationData again =
-      ReadCalibrationData(deskew, log_path, MotionSource::kLidar2d, nullptr, nullptr,
-                          std::llround(first.time_offset->value * 1e6), RecordingSource::Mode::kGrowing);
-  if (read) {
-    read->wheel_states = again.wheels().size();
-    read->last_wheel_utime = again.wheels().empty() ? 0 : again.wheels().last_utime();
+  CalibrationResult result = first;
+  for (int pass = 0; pass < kMaxDeskewedPasses; ++pass) {
+    const double matched_at = result.time_offset->value;
+    const CalibrationData again =
+        ReadCalibrationData(Calibrated(robot, result), log_path, MotionSource::kLidar2d, nullptr, nullptr,
+                            std::llround(matched_at * 1e6), RecordingSource::Mode::kGrowing);
+    if (read) {
+      read->wheel_states = again.wheels().size();
+      read->last_wheel_utime = again.wheels().empty() ? 0 : again.wheels().last_utime();
+    }
+    result = Calibrate(robot, again.wheels(), again.motions(), MotionSource::kLidar2d, options, origin);
+    if (!result.time_offset ||
+        std::abs(result.time_offset->value - matched_at) <= kDeskewedAgreeSigmas * result.time_offset->std)
+      break;
   }
-  return Calibrate(robot, again.wheels(), again.motions(), MotionSource::kLidar2d, options, origin);
+  return result;
 }
 
 CalibrationResult SolveLog(const RobotDescription& robot, const std::string& log_path,

@@ -89,13 +89,14 @@ TimeOffsetSearch SearchTimeOffset(DriveType drive, const double* params, const W
   const EncoderTrack track(drive, wheels);
   const Cumulative c = Integrate(track, params);
   std::vector<Observed> obs;
-  const double t_first = track.utime(0) * 1e-6;
   for (const SensorMotion& m : motions) {
     if (!m.valid || m.degenerate || m.utime_end <= m.utime_start) continue;
     Observed o;
-    o.t0 = m.utime_start * 1e-6 - t_first;
-    o.t1 = m.utime_end * 1e-6 - t_first;
-    if (o.t0 - max_offset_s < 0 || o.t1 + max_offset_s > c.t.back()) continue;  // covered at every offset
+    // Every match counts, also where the wheel data end before the offset's reach (Cumulative::At
+    // holds their ends there): a set that depended on the range searched would not move with the
+    // offset, and the minimum would depend on where the offset lies in the range (issue 16).
+    o.t0 = (m.utime_start - track.utime(0)) * 1e-6;
+    o.t1 = (m.utime_end - track.utime(0)) * 1e-6;
     o.turn = m.delta.theta;
     o.distance = std::hypot(m.delta.x, m.delta.y);
     // The match's sigmas, with floors so one overconfident match cannot dominate.
@@ -119,9 +120,15 @@ TimeOffsetSearch SearchTimeOffset(DriveType drive, const double* params, const W
     }
     return std::make_pair(best, best_cost);
   };
-  // The scales from offset 0, then again from the first pass's best offset (a large offset
-  // inflates them at 0).
-  rescale(0.0);
+  // The scales first from the offset on the grid where they are smallest (the least median of
+  // squares: a large offset inflates them at 0), then again from the first pass's best offset.
+  double least = 0.0, least_product = INFINITY;
+  for (double d = -max_offset_s; d <= max_offset_s + 1e-12; d += 1e-3) {
+    Residuals(c, obs, d, &turn, &dist);
+    const double product = Scale2(turn) * Scale2(dist);
+    if (product < least_product) least_product = product, least = d;
+  }
+  rescale(least);
   double best = best_on_grid(-max_offset_s, max_offset_s, 1e-3).first;
   rescale(best);
   best = best_on_grid(-max_offset_s, max_offset_s, 1e-3).first;

@@ -87,9 +87,17 @@ struct SecondPassInput {
 // The second pass of `solve --time-offset` (SolveLog), given the first pass's result `first` (with
 // its time offset): the scans of `log_path` matched again, de-skewed with `first`'s calibrated
 // model on the wheel clock (ReadCalibrationData's deskew_shift_us: the offset found), and
-// calibrated again with `options`; `origin` names the input in errors. The live solver runs it on
-// the group's recording at its final solve (docs/live.md), so `log_path` may still be being
+// calibrated again with `options`; `origin` names the input in errors. Repeated from each pass's
+// result until the offset found is the one the scans were matched at (within
+// kDeskewedAgreeSigmas of its sigma), at most kMaxDeskewedPasses times: which scans are matched
+// (the keyframes) follows the wheel motion predicted between their stamps, so the first pass's
+// offset, itself matched on the recorded stamps, chose them, and on the Lego robot's 4 Hz data
+// that moved the answer by up to 12 ms (a sigma) with every scan stamp shifted (issue 16); the
+// scans matched at the offset they give do not depend on the stamps' shift. The live solver runs
+// it on the group's recording at its final solve (docs/live.md), so `log_path` may still be being
 // written: it is read to its last complete event. `read`, if given, receives what it read.
+inline constexpr int kMaxDeskewedPasses = 4;
+inline constexpr double kDeskewedAgreeSigmas = 0.25;
 CalibrationResult SolveAgainDeskewed(const RobotDescription& robot, const std::string& log_path,
                                      const CalibrationResult& first, const CalibrationOptions& options,
                                      const std::string& origin, SecondPassInput* read = nullptr);

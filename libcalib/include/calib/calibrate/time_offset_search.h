@@ -13,12 +13,16 @@
 // (interval_model.h's convention: a scan stamped t was taken at wheel time t - d), compared with
 // the sensor's measured turn and travelled distance, each in units of the match's standard
 // deviation: the cross-correlation of the wheel and scan-matched turn rates (and speeds), as a
-// cost. The cost of an offset is the trimmed mean of the 75 % smallest squared residuals (large
-// residuals of a wrong offset, failed matches and unmodelled effects cannot pull it), on a 1 ms
-// grid over [-max, max], then on a 0.05 ms grid around the best point. The heading and distance
-// do not depend on the sensor's mount to first order, so the search needs no mount. Calibrate
-// repeats the search (and its fit) over twice the range when the best lies at the bound
-// (calibration.h kWidestTimeOffsetS).
+// cost. The cost of an offset is the mean Cauchy cost of both residuals, each in its own robust
+// scale (a wrong offset's large residuals, failed matches and unmodelled effects pull it only
+// boundedly), on a 1 ms grid over [-max, max], then on a 0.05 ms grid around the best point. The
+// scales are the residuals' median squares at the grid offset where their product is smallest,
+// then again at the first pass's best. Every valid match counts at every offset (where an
+// interval reaches beyond the wheel data, the wheel motion is held at the data's end), so nothing
+// depends on where the offset lies in the range: shifting every sensor stamp moves the result by
+// the shift (issue 16). The heading and distance do not depend on the sensor's mount to first
+// order, so the search needs no mount. Calibrate repeats the search (and its fit) over twice the
+// range when the best lies at the bound (calibration.h kWidestTimeOffsetS).
 
 #include <vector>
 
@@ -30,7 +34,7 @@ namespace calib {
 
 struct TimeOffsetSearch {
   double offset_s = 0.0;       // the global minimum of the cost
-  double cost = 0.0;           // trimmed mean squared residual there (units of the matches' sigma)
+  double cost = 0.0;           // mean Cauchy cost there (TimeOffsetSearch above)
   double cost_at_zero = 0.0;   // the same at offset 0
   int intervals = 0;           // intervals used
 };
