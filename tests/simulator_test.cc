@@ -10,6 +10,7 @@
 #include <algorithm>
 #include <cmath>
 #include <fstream>
+#include <unistd.h>
 #include <functional>
 #include <map>
 #include <string>
@@ -42,7 +43,9 @@ SimConfig Parse(const std::string& yaml) { return ParseSimConfig(yaml, "inline.y
 // A 10 m x 10 m square room centred at the origin (walls at x, y = +-5).
 constexpr double kRoomHalf = 5.0;
 std::string RoomWorld() {
-  const std::string path = testing::TempDir() + "/simulator_test_room.world";
+  // One file per process: ctest runs the cases in parallel, and one truncating the file while
+  // another reads it failed ScanRangesMatchTheRoomFromTheTrueMount now and then.
+  const std::string path = testing::TempDir() + "/simulator_test_room." + std::to_string(getpid()) + ".world";
   std::ofstream out(path);
   out << "# 10 m x 10 m room\nwall -5 -5 5 -5\nwall 5 -5 5 5\nwall 5 5 -5 5\nwall -5 5 -5 -5\n";
   return path;
