@@ -884,6 +884,15 @@ FoundEffect Diagnoser::Describe(const Candidate& c, const Fit& final_fit, const 
     fe.heldout_measure = "drift";
   else if (telescopes && fe.stretches.size() >= kMinStretches)
     fe.heldout_measure = "stretch";
+  const bool by_drift = fe.heldout_measure == "drift", by_stretch = fe.heldout_measure == "stretch";
+  const double judged_before = by_drift ? fe.heldout_drift_before : by_stretch ? fe.heldout_stretch_before : fe.heldout_rms_before;
+  const double judged_after = by_drift ? fe.heldout_drift_after : by_stretch ? fe.heldout_stretch_after : fe.heldout_rms_after;
+  if (!(judged_after < judged_before)) {
+    fe.heldout_disagrees = true;
+    fe.heldout_confirmed_by = ScoreConfirmed(without, final_fit)                  ? "score"
+                              : DriftConfirmed(without, final_fit, heading) ? "drift"
+                                                                                : "";
+  }
   fe.signature = Signature(x, sb, sa);
   std::vector<DiagnosedInterval> kept;
   std::vector<bool> kept_flag;
@@ -1645,14 +1654,7 @@ DiagnoseData ReadDiagnoseData(const RobotDescription& robot, const std::string& 
     try {
       CalibrationOptions co;
       co.check_observability = false;
-      // On the wheel clock the matcher used: the plain calibration (no offset) then sees no
-      // offset found in a first pass. On the recorded stamps it absorbed a different offset at
-      // each shift of the scans (issue 16: Mines exp2 +120 ms could not determine the lidar's
-      // position), its model picked other keyframes and priors, and the second pass kept other
-      // intervals (61 of 191 and 160 the same as recorded and at +120 ms; now 189 of 209, 204).
-      std::vector<SensorMotion> on_wheel_clock = out.motions;
-      for (SensorMotion& m : on_wheel_clock) m.utime_start -= shift_us, m.utime_end -= shift_us;
-      const CalibrationResult cal = Calibrate(robot, out.wheels, on_wheel_clock, out.source, co, log_path);
+      const CalibrationResult cal = Calibrate(robot, out.wheels, out.motions, out.source, co, log_path);
       if (progress) progress("matching the scans again, de-skewed with the calibrated model");
       out.motions_spread.clear();
       ReadMotions(Calibrated(robot, cal), log_path, progress, shift_us, &out);
