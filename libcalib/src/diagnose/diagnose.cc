@@ -235,7 +235,8 @@ class Diagnoser {
   Eigen::Vector3d SpreadDerivative(const SensorMotion* m,
                                    const std::map<std::pair<int64_t, int64_t>, const SensorMotion*>& spread) const;
   // Sets aside the intervals that are outliers under every model of `models` (each at its own
-  // robust scale): a large residual that some candidate explains is evidence, not noise.
+  // robust scale, at most the chosen model's, the last of `models`): a large residual that some
+  // candidate explains is evidence, not noise.
   void Gate(const std::vector<Model>& models);
   // The share of intervals set aside and its correlation with each motion regressor.
   void DescribeOutliers(DiagnoseReport* report) const;
@@ -885,6 +886,15 @@ FoundEffect Diagnoser::Describe(const Candidate& c, const Fit& final_fit, const 
     fe.heldout_measure = "drift";
   else if (telescopes && fe.stretches.size() >= kMinStretches)
     fe.heldout_measure = "stretch";
+  const bool by_drift = fe.heldout_measure == "drift", by_stretch = fe.heldout_measure == "stretch";
+  const double judged_before = by_drift ? fe.heldout_drift_before : by_stretch ? fe.heldout_stretch_before : fe.heldout_rms_before;
+  const double judged_after = by_drift ? fe.heldout_drift_after : by_stretch ? fe.heldout_stretch_after : fe.heldout_rms_after;
+  if (!(judged_after < judged_before)) {
+    fe.heldout_disagrees = true;
+    fe.heldout_confirmed_by = ScoreConfirmed(without, final_fit)                  ? "score"
+                              : DriftConfirmed(without, final_fit, heading) ? "drift"
+                                                                                : "";
+  }
   fe.signature = Signature(x, sb, sa);
   std::vector<DiagnosedInterval> kept;
   std::vector<bool> kept_flag;
@@ -1178,11 +1188,20 @@ DiagnoseReport Diagnoser::Run() {
 
 void Diagnoser::Gate(const std::vector<Model>& models) {
   for (Interval& it : intervals_) it.outlier = true;
-  for (const Model& m : models) {
+  auto robust_scale2 = [&](const Model& m) {
     std::vector<double> chi2;
     for (const Interval& it : intervals_)
       if (!it.heldout) chi2.push_back(Chi2Of(it, m));
-    const double scale2 = RobustScale2(std::move(chi2));
+    return RobustScale2(std::move(chi2));
+  };
+  const double chosen2 = robust_scale2(models.back());
+  for (const Model& m : models) {
+    // A model that leaves out what the chosen one explains has residuals, and so a robust
+    // scale, inflated by it: at its own scale it excused failed matches the chosen model puts
+    // at hundreds of times the noise, the more the larger the effect left out (issue 16: Mines
+    // exp2 with every scan +120 ms kept one at 556 times the offset model's scale, which
+    // pulled the offset 26 ms and its sigma from 4 to 25 ms). No model's scale exceeds the chosen one's.
+    const double scale2 = std::min(robust_scale2(m), chosen2);
     for (Interval& it : intervals_) it.outlier = it.outlier && IsOutlier(Chi2Of(it, m), scale2, kOutlierChi2);
   }
 }

@@ -124,6 +124,7 @@ std::string DiagnoseReportJson(const DiagnoseReport& r) {
                                {"rms_after", Number(e.heldout_stretch_after)}, {"per_stretch", per}};
     }
     je["heldout_measure"] = e.heldout_measure;
+    if (e.heldout_disagrees) je["heldout_disagrees"] = {{"confirmed_by", e.heldout_confirmed_by}};
     je["where"] = Spans(e.where, origin);
     if (e.region) je["region"] = {(*e.region)[0], (*e.region)[1], (*e.region)[2], (*e.region)[3]};
     je["regime"] = e.regime;
@@ -236,6 +237,11 @@ std::string DiagnoseSummaryText(const DiagnoseReport& r) {
         << BeforeAfter(e.heldout_drift_before, e.heldout_drift_after, ComponentUnit(e.drift_component)) << " ("
         << Percent(e.heldout_drift_before, e.heldout_drift_after) << " lower)" << judges("drift");
     }
+    if (e.heldout_disagrees)
+      s << "  held-out proofs disagree: the measure that judges it is not lower with it; "
+        << (e.heldout_confirmed_by.empty() ? "no held-out test confirms it against the final model without it"
+                                           : "the held-out " + e.heldout_confirmed_by + " test confirms it")
+        << "\n";
   }
   for (const Indistinguishable& d : r.indistinguishable)
     s << "\nINDISTINGUISHABLE: " << d.first << " and " << d.second << " (correlation " << d.correlation
