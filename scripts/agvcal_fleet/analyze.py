@@ -11,7 +11,6 @@ the fleet's pooled noise scale, describe the scatter.
 """
 import json
 import math
-import sys
 
 from . import db as dbmod
 from . import stats
@@ -359,29 +358,19 @@ def store(db, findings):
                       | {"detail": dbmod.dumps(f["detail"])})
 
 
-def main(args):
-    db = dbmod.Database(args.db)
-    db.migrate()
-    robots = load(db)
-    result = analyze(robots, alpha=args.alpha, min_recordings=args.min_recordings,
-                     window_days=args.window_days, fleet_min_robots=args.fleet_min_robots)
-    store(db, result["findings"])
-    if args.command == "report":
-        from . import report
-        report.write(args.out, robots, result, db)
-        print(f"agvcal-fleet: report in {args.out}/index.html", file=sys.stderr)
-    else:
-        if getattr(args, "json", None):
-            with open(args.json, "w", encoding="utf-8") as f:
-                json.dump({k: result[k] for k in ("findings", "scales", "tests", "alpha")}, f,
-                          indent=1, sort_keys=True, default=str)
-        if not args.quiet:
-            n_rec = sum(len(r["recordings"]) for r in robots.values())
-            attention = sorted({f["robot_id"] for f in result["findings"] if f["robot_id"] != "*"})
-            print(f"{len(robots)} robots, {n_rec} recordings, {result['tests']} trend tests at a "
-                  f"family-wise false-alarm rate of {args.alpha:g}; {len(attention)} robots need attention")
-            for f in result["findings"]:
-                who = "fleet" if f["robot_id"] == "*" else f["robot_id"]
-                print(f"  {who:<12} {f['kind']:<12} {f['why']}")
-    db.close()
-    return 0
+def write_json(path, result):
+    with open(path, "w", encoding="utf-8") as f:
+        json.dump({k: result[k] for k in ("findings", "scales", "tests", "alpha")}, f,
+                  indent=1, sort_keys=True, default=str)
+
+
+def summary(robots, result):
+    """The findings as the lines `analyze` prints."""
+    n_rec = sum(len(r["recordings"]) for r in robots.values())
+    attention = sorted({f["robot_id"] for f in result["findings"] if f["robot_id"] != "*"})
+    lines = [f"{len(robots)} robots, {n_rec} recordings, {result['tests']} trend tests at a "
+             f"family-wise false-alarm rate of {result['alpha']:g}; {len(attention)} robots need attention"]
+    for f in result["findings"]:
+        who = "fleet" if f["robot_id"] == "*" else f["robot_id"]
+        lines.append(f"  {who:<12} {f['kind']:<12} {f['why']}")
+    return lines

@@ -1,4 +1,5 @@
-"""Command line of agvcal-fleet (docs/fleet.md)."""
+"""Command line of agvcal-fleet (docs/fleet.md): parses, dispatches to the modules that do
+the work (none of which imports this one or each other's commands), prints errors."""
 import argparse
 import os
 import sys
@@ -6,6 +7,9 @@ import sys
 from .errors import UsageError
 
 DEFAULT_DB = os.environ.get("AGVCAL_FLEET_DB", "fleet.sqlite")
+# The system Python's packages the commands import when they need them.
+DEBIAN_PACKAGES = {"dask": "python3-dask", "distributed": "python3-distributed",
+                   "numpy": "python3-numpy", "scipy": "python3-scipy", "yaml": "python3-yaml"}
 
 
 class Parser(argparse.ArgumentParser):
@@ -122,6 +126,30 @@ def build_parser():
     return ap
 
 
+def analyze_and_report(args):
+    """`analyze` and `report`: the decisions from the database, stored in it (findings), then
+    printed or written as the HTML report."""
+    from . import analyze
+    from . import db as dbmod
+    db = dbmod.Database(args.db)
+    db.migrate()
+    robots = analyze.load(db)
+    result = analyze.analyze(robots, alpha=args.alpha, min_recordings=args.min_recordings,
+                             window_days=args.window_days, fleet_min_robots=args.fleet_min_robots)
+    analyze.store(db, result["findings"])
+    if args.command == "report":
+        from . import report
+        report.write(args.out, robots, result, db)
+        print(f"agvcal-fleet: report in {args.out}/index.html", file=sys.stderr)
+    else:
+        if args.json:
+            analyze.write_json(args.json, result)
+        if not args.quiet:
+            print("\n".join(analyze.summary(robots, result)))
+    db.close()
+    return 0
+
+
 def main(argv=None):
     ap = build_parser()
     try:
@@ -137,8 +165,7 @@ def main(argv=None):
         if args.command in ("analyze", "report"):
             if not 0 < args.alpha < 1:
                 raise UsageError(f"agvcal-fleet {args.command}: --alpha must lie in (0, 1)")
-            from . import analyze
-            return analyze.main(args)
+            return analyze_and_report(args)
         if args.command == "migrate":
             from . import db as dbmod
             db = dbmod.Database(args.db)
@@ -153,6 +180,13 @@ def main(argv=None):
     except UsageError as e:
         print(f"agvcal-fleet: error: {e}", file=sys.stderr)
         return 2
+    except ModuleNotFoundError as e:
+        top = (e.name or "").split(".")[0]
+        if top not in DEBIAN_PACKAGES:
+            raise
+        print(f"agvcal-fleet: error: the Python module {top} is not installed (Debian package "
+              f"{DEBIAN_PACKAGES[top]}; scripts/setup.sh installs it)", file=sys.stderr)
+        return 1
     except KeyboardInterrupt:
         print("agvcal-fleet: interrupted", file=sys.stderr)
         return 130
