@@ -1,51 +1,79 @@
 """Tests on one parameter's series of calibrations (t_i, y_i, sigma_i) of one robot.
 
 Everything is weighted by 1/sigma^2 and takes a noise scale f >= 1 by which the sigmas are
-multiplied (estimated from the fleet's scatter, `pooled_scale`). Pure Python (no numpy).
+multiplied (estimated from the fleet's scatter, `pooled_scale`). The distributions from
+scipy.special (scipy.stats would add a second to every start), the weighted sums with numpy
+(scipy has no regression with known sigmas).
 
 - drift: weighted linear regression of y on t; z = slope / its standard error.
 - step: for every split (at least `min_side` recordings on each side) the weighted two-sample
   z of the means after and before; the largest |z| is the change point, its p-value
   multiplied by the number of splits tried (Bonferroni).
 The caller multiplies again by the number of tests over the fleet (analyze.py).
+Results are plain Python numbers (they go to JSON and the database).
 """
 import math
+import random
+
+import numpy as np
+from scipy import special
 
 
 def p_two_sided(z):
     """P(|N(0,1)| >= |z|)."""
-    return math.erfc(abs(z) / math.sqrt(2.0))
+    return float(2.0 * special.ndtr(-abs(z)))
+
+
+def _weights(s):
+    s = np.asarray(s, dtype=float)
+    return 1.0 / (s * s)
 
 
 def weighted_mean(y, s):
-    w = [1.0 / (si * si) for si in s]
-    sw = sum(w)
-    m = sum(wi * yi for wi, yi in zip(w, y)) / sw
-    return m, 1.0 / sw  # mean, its variance (unit scale)
+    """(mean, its variance at unit scale)."""
+    w = _weights(s)
+    sw = w.sum(-1)
+    return float(np.dot(w, np.asarray(y, dtype=float)) / sw), float(1.0 / sw)
 
 
-def chi2_const(y, s):
-    m, _ = weighted_mean(y, s)
-    return sum(((yi - m) / si) ** 2 for yi, si in zip(y, s))
+def _line(t, y, w):
+    """Weighted least squares y = a + b (t - tw) along the last axis (one series, or one per
+    row): a, b, var_b (unit scale; inf when t is constant), chi2, tw."""
+    sw = w.sum(-1)
+    tw = (w * t).sum(-1) / sw
+    dt = t - tw[..., None]
+    stt = (w * dt * dt).sum(-1)
+    a = (w * y).sum(-1) / sw
+    flat = stt <= 0
+    b = np.where(flat, 0.0, (w * dt * y).sum(-1) / np.where(flat, 1.0, stt))
+    chi2 = (w * (y - a[..., None] - b[..., None] * dt) ** 2).sum(-1)
+    var_b = np.where(flat, np.inf, 1.0 / np.where(flat, 1.0, stt))
+    return a, b, var_b, chi2, tw
 
 
-def linear_fit(t, y, s):
-    """Weighted least squares y = a + b (t - tw): (a, b, var_b, chi2, tw) at unit scale."""
-    w = [1.0 / (si * si) for si in s]
-    sw = sum(w)
-    tw = sum(wi * ti for wi, ti in zip(w, t)) / sw
-    stt = sum(wi * (ti - tw) ** 2 for wi, ti in zip(w, t))
-    a = sum(wi * yi for wi, yi in zip(w, y)) / sw
-    if stt <= 0:
-        return a, 0.0, math.inf, chi2_const(y, s), tw
-    b = sum(wi * (ti - tw) * yi for wi, ti, yi in zip(w, t, y)) / stt
-    chi2 = sum(wi * (yi - a - b * (ti - tw)) ** 2 for wi, ti, yi in zip(w, t, y))
-    return a, b, 1.0 / stt, chi2, tw
+def _best_step(y, w, min_side):
+    """The split with the largest |z| of every row of y (series in time order) at unit scale:
+    k (first index of the new level), mean before, after, their variances, z, and the chi2
+    of the two-level model, one per row."""
+    rows, n = y.shape
+    ks = np.arange(min_side, n - min_side + 1)
+    w_before, wy_before = np.cumsum(w, 1), np.cumsum(w * y, 1)
+    w_after = np.cumsum(w[:, ::-1], 1)[:, ::-1]
+    wy_after = np.cumsum((w * y)[:, ::-1], 1)[:, ::-1]
+    w0, w1 = w_before[:, ks - 1], w_after[:, ks]
+    m0, m1 = wy_before[:, ks - 1] / w0, wy_after[:, ks] / w1
+    z = (m1 - m0) / np.sqrt(1.0 / w0 + 1.0 / w1)
+    r, i = np.arange(rows), np.argmax(np.abs(z), 1)  # the first of equal |z|
+    k, m0, m1, w0, w1 = ks[i], m0[r, i], m1[r, i], w0[r, i], w1[r, i]
+    level = np.where(np.arange(n) < k[:, None], m0[:, None], m1[:, None])
+    chi2 = (w * (y - level) ** 2).sum(1)
+    return k, m0, m1, 1.0 / w0, 1.0 / w1, z[r, i], chi2
 
 
 def drift_test(t, y, s, scale=1.0):
     """{slope, slope_std, z, p, chi2 (of the line, unit scale), a, tw}."""
-    a, b, var_b, chi2, tw = linear_fit(t, y, s)
+    a, b, var_b, chi2, tw = (float(v) for v in _line(np.asarray(t, dtype=float),
+                                                     np.asarray(y, dtype=float), _weights(s)))
     sd = scale * math.sqrt(var_b) if math.isfinite(var_b) else math.inf
     z = b / sd if sd > 0 and math.isfinite(sd) else 0.0
     return {"slope": b, "slope_std": sd, "z": z, "p": p_two_sided(z), "chi2": chi2, "a": a, "tw": tw}
@@ -58,33 +86,19 @@ def step_test(y, s, scale=1.0, min_side=2):
     n = len(y)
     if n < 2 * min_side:
         return None
-    best = None
-    for k in range(min_side, n - min_side + 1):
-        m0, v0 = weighted_mean(y[:k], s[:k])
-        m1, v1 = weighted_mean(y[k:], s[k:])
-        sd = scale * math.sqrt(v0 + v1)
-        z = (m1 - m0) / sd
-        if best is None or abs(z) > abs(best["z"]):
-            best = {"k": k, "before": m0, "after": m1, "size": m1 - m0, "size_std": sd, "z": z}
+    k, m0, m1, v0, v1, _, chi2 = (a[0] for a in _best_step(np.asarray(y, dtype=float)[None, :],
+                                                             _weights(s)[None, :], min_side))
+    m0, m1 = float(m0), float(m1)
+    sd = scale * math.sqrt(float(v0) + float(v1))
+    z = (m1 - m0) / sd
     splits = n - 2 * min_side + 1
-    best["splits"] = splits
-    best["p"] = min(1.0, splits * p_two_sided(best["z"]))
-    k = best["k"]
-    best["chi2"] = chi2_const(y[:k], s[:k]) + chi2_const(y[k:], s[k:])
-    return best
-
-
-def chi2_median(k):
-    """Median of the chi-square distribution with k degrees of freedom (Wilson-Hilferty)."""
-    return k * (1.0 - 2.0 / (9.0 * k)) ** 3 if k > 0 else 0.0
+    return {"k": int(k), "before": m0, "after": m1, "size": m1 - m0, "size_std": sd, "z": z,
+            "splits": splits, "p": min(1.0, splits * p_two_sided(z)), "chi2": float(chi2)}
 
 
 def median(xs):
-    xs = sorted(xs)
-    n = len(xs)
-    if not n:
-        return math.nan
-    return xs[n // 2] if n % 2 else 0.5 * (xs[n // 2 - 1] + xs[n // 2])
+    """The median (nan of nothing)."""
+    return float(np.median(xs)) if len(xs) else math.nan
 
 
 _NULL_MEDIAN = {}
@@ -94,17 +108,13 @@ def null_median_best_chi2(n):
     """Median, for n values of pure unit noise at equal spacing, of the smaller chi-square
     of the two models (line, best step): by a seeded simulation (deterministic), cached."""
     if n not in _NULL_MEDIAN:
-        import random
         rng = random.Random(1000 + n)
-        t = [float(i) for i in range(n)]
-        s = [1.0] * n
-        vals = []
-        for _ in range(801):
-            y = [rng.gauss(0.0, 1.0) for _ in range(n)]
-            c = linear_fit(t, y, s)[3]
-            st = step_test(y, s)
-            vals.append(min(c, st["chi2"]) if st else c)
-        _NULL_MEDIAN[n] = median(vals)
+        y = np.array([[rng.gauss(0.0, 1.0) for _ in range(n)] for _ in range(801)])
+        w = np.ones_like(y)
+        best = _line(np.arange(n, dtype=float), y, w)[3]
+        if n >= 4:
+            best = np.minimum(best, _best_step(y, w, 2)[6])
+        _NULL_MEDIAN[n] = median(best)
     return _NULL_MEDIAN[n]
 
 
@@ -123,12 +133,4 @@ def pooled_scale(fits):
 
 def binomial_sf(k, n, p):
     """P(X >= k), X ~ Binomial(n, p)."""
-    if k <= 0:
-        return 1.0
-    if k > n:
-        return 0.0
-    total = 0.0
-    for i in range(k, n + 1):
-        total += math.exp(math.lgamma(n + 1) - math.lgamma(i + 1) - math.lgamma(n - i + 1)
-                          + i * math.log(p) + (n - i) * math.log1p(-p))
-    return min(1.0, total)
+    return float(special.bdtrc(k - 1, n, p))  # P(X > k - 1)

@@ -1,18 +1,80 @@
 """agvcal-fleet without a cluster: the statistics on series with a known answer (drift and
 step found where they are, the family-wise false-alarm rate on constant fleets, the pooled
 noise scale when the sigmas are optimistic), fleet.yaml errors (exit 2, one line naming the
-file and the key), the folder-tree form, the schema migration, --help everywhere."""
+file and the key), the folder-tree form, the schema migration, --help everywhere, and that the
+package's modules import each other without a cycle."""
+import ast
 import math
 import os
 import random
 import sqlite3
 import sys
+from fractions import Fraction
 
 sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
 from fleetlib import check, finish, fleet, tmpdir  # noqa: E402
 
 from agvcal_fleet import analyze as an  # noqa: E402
 from agvcal_fleet import stats  # noqa: E402
+
+
+
+# -- the package's import graph ----------------------------------------------------------------
+def package_imports(folder):
+    """{module: {modules of the same package it imports anywhere in it (also inside functions)}}"""
+    mods = {f[:-3] for f in os.listdir(folder) if f.endswith(".py")}
+    graph = {}
+    for m in mods:
+        deps = set()
+        for node in ast.walk(ast.parse(open(os.path.join(folder, m + ".py")).read())):
+            if isinstance(node, ast.ImportFrom):
+                base = node.module or ""
+                if node.level == 1 or base.split(".")[0] == "agvcal_fleet":
+                    sub = base.split(".")[1:] if node.level == 0 else base.split(".")
+                    if sub and sub[0]:
+                        deps.add(sub[0])
+                    else:  # from . import a, b
+                        deps |= {a.name for a in node.names}
+            elif isinstance(node, ast.Import):
+                deps |= {a.name.split(".")[1] for a in node.names
+                         if a.name.startswith("agvcal_fleet.")}
+        graph[m] = (deps & mods) - {m}
+    return graph
+
+
+def find_cycle(graph):
+    """A list of modules that import each other in a circle, or None."""
+    state, stack = {}, []
+
+    def visit(m):
+        state[m] = "open"
+        stack.append(m)
+        for d in sorted(graph[m]):
+            if state.get(d) == "open":
+                return stack[stack.index(d):] + [d]
+            if d not in state:
+                c = visit(d)
+                if c:
+                    return c
+        state[m] = "done"
+        stack.pop()
+        return None
+
+    for m in sorted(graph):
+        if m not in state:
+            c = visit(m)
+            if c:
+                return c
+    return None
+
+
+graph = package_imports(os.path.join(os.path.dirname(stats.__file__)))
+check(len(graph) >= 10 and "analyze" in graph["cli"] and "report" in graph["cli"],
+      "import graph of scripts/agvcal_fleet read (cli imports analyze and report)", str(graph))
+cycle = find_cycle(graph)
+check(cycle is None, "scripts/agvcal_fleet imports without a cycle", " -> ".join(cycle or []))
+check(find_cycle({"a": {"b"}, "b": {"c"}, "c": {"a"}, "d": set()}) == ["a", "b", "c", "a"],
+      "the cycle check finds a cycle")
 
 rng = random.Random(20)
 
@@ -28,8 +90,14 @@ st = stats.step_test(y, s)
 check(st["k"] == 6 and abs(st["size"] - 0.05) < 4 * st["size_std"] and st["splits"] == 7,
       "step: change point at the injected index, size within its sigma, 7 splits counted", str(st))
 check(stats.step_test(y[:3], s[:3]) is None, "step: no test with fewer than 4 values")
-check(abs(stats.chi2_median(10) - 9.342) < 0.01, "chi-square median (Wilson-Hilferty)")
 check(abs(stats.binomial_sf(2, 10, 0.1) - (1 - 0.9 ** 10 - 10 * 0.1 * 0.9 ** 9)) < 1e-12, "binomial tail")
+# the fleet-wide test's tails are far below double precision's epsilon: exact rational sums
+for k, n in ((3, 7), (30, 200), (5, 40)):
+    q = Fraction(1, 10000)
+    exact = sum(math.comb(n, i) * q ** i * (1 - q) ** (n - i) for i in range(k, n + 1))
+    got = stats.binomial_sf(k, n, 1e-4)
+    check(abs(got / float(exact) - 1) < 1e-9, f"binomial tail P(X >= {k}), n {n}, p 1e-4: {got:.6g}", str(float(exact)))
+check(stats.binomial_sf(0, 5, 0.5) == 1.0 and stats.binomial_sf(6, 5, 0.5) == 0.0, "binomial tail at the ends")
 check(abs(stats.p_two_sided(1.959964) - 0.05) < 1e-6, "two-sided normal p-value")
 
 
