@@ -1,30 +1,37 @@
 """Small SVG plots, written by hand (no plotting library): a time axis in dates, a value
-axis with round ticks, points with error bars, bands, lines, markers."""
+axis with round ticks, points with error bars, bands, lines, markers. The look and the tick
+rule are the C++ reports' (libcalib/src/io/svg_plot.cc): sans-serif 12 px, a dark frame,
+grey grid lines at the value ticks, tick marks below, the title above the frame, the value
+axis's label turned along it; only the time axis differs (dates: month starts or weeks)."""
 import datetime
 import html
 import math
 
 
-def nice_ticks(lo, hi, n=5):
-    if not (math.isfinite(lo) and math.isfinite(hi)) or hi <= lo:
-        return [lo]
-    raw = (hi - lo) / n
-    mag = 10 ** math.floor(math.log10(raw))
-    step = min((m * mag for m in (1, 2, 2.5, 5, 10) if m * mag >= raw), default=10 * mag)
-    start = math.ceil(lo / step) * step
+def ticks(lo, hi):
+    """The report plots' tick rule, the same as the C++ reports' (libcalib/src/io/svg_plot.h,
+    SvgTicks; fleet_unit compares the two): about five round values over [lo, hi], the step
+    2, 5 or 10 times a power of ten, from the first multiple of the step at or above lo; labels
+    with 4 significant digits, more where the step needs them. [(value, label)]. The same
+    floating-point operations in the same order as the C++, so the same values to the bit."""
+    span = hi - lo
+    if not span > 0:
+        return [(lo, f"{lo:.4g}")]
+    if math.isinf(span):
+        return []
+    raw = span / 5
+    mag = math.pow(10.0, math.floor(math.log10(raw)))
+    step = 2 * mag if raw / mag < 2 else 5 * mag if raw / mag < 5 else 10 * mag
     out = []
-    v = start
-    while v <= hi + 1e-12 * abs(hi) + 1e-300:
-        out.append(round(v, 12))
+    v = math.ceil(lo / step) * step
+    while v <= hi + 1e-9 * span:
+        value = 0.0 if abs(v) < 1e-12 * step else v
+        digits = 4
+        if value != 0:  # down to the step's digit: 116.25 and 116.3, not 116.2 twice
+            digits = max(digits, math.floor(math.log10(abs(value))) - math.floor(math.log10(step)) + 1)
+        out.append((value, f"{value:.{digits}g}"))
         v += step
     return out
-
-
-def fmt_tick(v, step):
-    if step == 0 or not math.isfinite(step):
-        return f"{v:g}"
-    d = next((k for k in range(12) if abs(round(step, k) - step) <= 1e-9 * abs(step)), 12)
-    return f"{v:.{d}f}"
 
 
 class Plot:
@@ -32,7 +39,7 @@ class Plot:
 
     def __init__(self, width=640, height=200, title="", ylabel="", xlo=None, xhi=None, ylo=None, yhi=None):
         self.w, self.h = width, height
-        self.ml, self.mr, self.mt, self.mb = 64, 12, 22, 26
+        self.ml, self.mr, self.mt, self.mb = 80, 12, 22, 26
         self.title, self.ylabel = title, ylabel
         self.xlo, self.xhi, self.ylo, self.yhi = xlo, xhi, ylo, yhi
         self.items = []
@@ -108,27 +115,24 @@ class Plot:
             self.fit([0, 1], [0, 1])
         w, h, ml, mr, mt, mb = self.w, self.h, self.ml, self.mr, self.mt, self.mb
         out = [f'<svg xmlns="http://www.w3.org/2000/svg" width="{w}" height="{h}" viewBox="0 0 {w} {h}" '
-               f'font-family="DejaVu Sans, Arial, sans-serif">',
-               f'<rect x="0" y="0" width="{w}" height="{h}" fill="white"/>',
+               f'font-family="sans-serif" font-size="12">',
+               '<rect width="100%" height="100%" fill="white"/>',
                f'<clipPath id="c"><rect x="{ml}" y="{mt}" width="{w - ml - mr}" height="{h - mt - mb}"/></clipPath>']
-        # axes and grid
-        yt = nice_ticks(self.ylo, self.yhi, 4) if yticks else []
-        step = yt[1] - yt[0] if len(yt) > 1 else 0
-        for v in yt:
-            py = self.Y(v)
-            out.append(f'<line x1="{ml}" y1="{py:.1f}" x2="{w - mr}" y2="{py:.1f}" stroke="#eee"/>')
-            out.append(f'<text x="{ml - 4}" y="{py + 3.5:.1f}" font-size="10" text-anchor="end">{fmt_tick(v, step)}</text>')
-        for x, label in (date_ticks(self.xlo, self.xhi) if xdates else
-                         [(v, f"{v:g}") for v in nice_ticks(self.xlo, self.xhi, 6)]):
-            px = self.X(x)
-            out.append(f'<line x1="{px:.1f}" y1="{mt}" x2="{px:.1f}" y2="{h - mb}" stroke="#f2f2f2"/>')
-            out.append(f'<text x="{px:.1f}" y="{h - mb + 13}" font-size="10" text-anchor="middle">{label}</text>')
-        out.append(f'<rect x="{ml}" y="{mt}" width="{w - ml - mr}" height="{h - mt - mb}" fill="none" stroke="#999"/>')
-        out.append(f'<g clip-path="url(#c)">' + "".join(self.items) + "</g>")
         if self.title:
-            out.append(f'<text x="{ml}" y="14" font-size="12" font-weight="bold">{html.escape(self.title)}</text>')
+            out.append(f'<text x="{ml}" y="{mt - 6}" font-size="13">{html.escape(self.title)}</text>')
+        out.append(f'<rect x="{ml}" y="{mt}" width="{w - ml - mr}" height="{h - mt - mb}" fill="none" stroke="#444"/>')
+        for x, label in date_ticks(self.xlo, self.xhi) if xdates else ticks(self.xlo, self.xhi):
+            px = self.X(x)
+            out.append(f'<line x1="{px:.1f}" x2="{px:.1f}" y1="{h - mb}" y2="{h - mb + 4}" stroke="#444"/>'
+                       f'<text x="{px:.1f}" y="{h - mb + 16}" text-anchor="middle">{label}</text>')
+        for v, label in ticks(self.ylo, self.yhi) if yticks else []:
+            py = self.Y(v)
+            out.append(f'<line x1="{ml - 4}" x2="{w - mr}" y1="{py:.1f}" y2="{py:.1f}" stroke="#ddd"/>'
+                       f'<text x="{ml - 6}" y="{py + 4:.1f}" text-anchor="end">{label}</text>')
         if self.ylabel:
-            out.append(f'<text x="{w - mr}" y="14" font-size="10" text-anchor="end" fill="#555">{html.escape(self.ylabel)}</text>')
+            out.append(f'<text transform="translate(16,{(mt + h - mb) / 2:.1f}) rotate(-90)" '
+                       f'text-anchor="middle">{html.escape(self.ylabel)}</text>')
+        out.append('<g clip-path="url(#c)">' + "".join(self.items) + "</g>")
         out.append("</svg>")
         return "\n".join(out)
 

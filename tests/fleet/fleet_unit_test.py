@@ -2,17 +2,19 @@
 step found where they are, the family-wise false-alarm rate on constant fleets, the pooled
 noise scale when the sigmas are optimistic), fleet.yaml errors (exit 2, one line naming the
 file and the key), the folder-tree form, the schema migration, --help everywhere, and that the
-package's modules import each other without a cycle."""
+package's modules import each other without a cycle, and that the report's plots have the C++
+reports' ticks."""
 import ast
 import math
 import os
 import random
 import sqlite3
+import subprocess
 import sys
 from fractions import Fraction
 
 sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
-from fleetlib import check, finish, fleet, tmpdir  # noqa: E402
+from fleetlib import BUILD, check, finish, fleet, tmpdir  # noqa: E402
 
 from agvcal_fleet import analyze as an  # noqa: E402
 from agvcal_fleet import stats  # noqa: E402
@@ -75,6 +77,34 @@ cycle = find_cycle(graph)
 check(cycle is None, "scripts/agvcal_fleet imports without a cycle", " -> ".join(cycle or []))
 check(find_cycle({"a": {"b"}, "b": {"c"}, "c": {"a"}, "d": set()}) == ["a", "b", "c", "a"],
       "the cycle check finds a cycle")
+
+
+# -- the tick rule: the same ticks and labels as the C++ reports' --------------------------------
+from agvcal_fleet import svg  # noqa: E402
+
+tick_rng = random.Random(3)
+ranges = [(0, 1), (0, 2.5), (0, 10), (-5, 5), (0, 13), (-1, 10), (5, 5), (0, 7200), (1e-6, 3e-6),
+          (116.1, 116.45), (116.1, 116.3), (1425.2, 1433.9), (-0.0125, 0.0041), (20000.5, 20049.3),
+          (1e-12, 1e-11), (-3e7, 4e7), (0.3, 0.30000001)]
+for _ in range(400):
+    mag = 10 ** tick_rng.uniform(-7, 5)
+    lo = tick_rng.choice([-1, 1]) * mag * tick_rng.uniform(0, 50)
+    ranges.append((lo, lo + mag * 10 ** tick_rng.uniform(-4, 1)))
+ticks_bin = os.path.join(BUILD, "tests", "svg_ticks")
+if check(os.access(ticks_bin, os.X_OK), "the C++ tick rule's printer is built", ticks_bin):
+    p = subprocess.run([ticks_bin], input="".join(f"{lo!r} {hi!r}\n" for lo, hi in ranges),
+                       capture_output=True, text=True, timeout=60)
+    cxx = [[(float(v), lab) for v, lab in (x.split("|") for x in line.split())]
+           for line in p.stdout.splitlines()]
+    differ = [(r, c, svg.ticks(*r)) for r, c in zip(ranges, cxx) if c != svg.ticks(*r)]
+    check(len(cxx) == len(ranges) and not differ,
+          f"svg.ticks gives the C++ reports' ticks and labels on {len(ranges)} ranges", str(differ[:3]))
+    alike = [c for c in cxx if len({lab for _, lab in c}) < len(c)]
+    check(not alike and all(2 <= len(c) <= 6 for c in cxx[8:]),
+          "2 to 6 ticks over every range, no two labelled alike", str(alike[:3]))
+    check(cxx[9] == [(116.10000000000001, "116.1"), (116.2, "116.2"), (116.3, "116.3"),
+                     (116.39999999999999, "116.4")] and svg.ticks(116.1, 116.3)[1][1] == "116.15",
+          "labels down to the step's digit", str(cxx[9:11]))
 
 rng = random.Random(20)
 

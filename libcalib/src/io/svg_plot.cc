@@ -13,18 +13,23 @@ namespace {
 
 std::string Num(double v) { return Formatted("%.4g", v); }
 
-// About five round tick values over [lo, hi].
-std::vector<double> Ticks(double lo, double hi) {
+}  // namespace
+
+std::vector<SvgTick> SvgTicks(double lo, double hi) {
   const double span = hi - lo;
-  if (!(span > 0)) return {lo};
+  if (!(span > 0)) return {{lo, Num(lo)}};
   const double raw = span / 5, mag = std::pow(10, std::floor(std::log10(raw)));
   const double step = raw / mag < 2 ? 2 * mag : raw / mag < 5 ? 5 * mag : 10 * mag;
-  std::vector<double> t;
-  for (double v = std::ceil(lo / step) * step; v <= hi + 1e-9 * span; v += step) t.push_back(std::abs(v) < 1e-12 * step ? 0 : v);
+  std::vector<SvgTick> t;
+  for (double v = std::ceil(lo / step) * step; v <= hi + 1e-9 * span; v += step) {
+    const double value = std::abs(v) < 1e-12 * step ? 0 : v;
+    int digits = 4;
+    if (value != 0)  // down to the step's digit: 116.25 and 116.3, not 116.2 twice
+      digits = std::max(digits, static_cast<int>(std::floor(std::log10(std::abs(value))) - std::floor(std::log10(step))) + 1);
+    t.push_back({value, Formatted("%.*g", digits, value)});
+  }
   return t;
 }
-
-}  // namespace
 
 SvgPlot::Panel& SvgPlot::AddPanel(const std::string& title, const std::string& x_label, const std::string& y_label) {
   Panel panel;
@@ -74,12 +79,12 @@ std::string SvgPlot::Render() const {
     }
     s << "<rect x=\"" << left << "\" y=\"" << y0 << "\" width=\"" << w << "\" height=\"" << h
       << "\" fill=\"none\" stroke=\"#444\"/>\n";
-    for (double t : Ticks(xmin, xmax))
+    for (const auto& [t, label] : SvgTicks(xmin, xmax))
       s << "<line x1=\"" << X(t) << "\" x2=\"" << X(t) << "\" y1=\"" << y0 + h << "\" y2=\"" << y0 + h + 4
-        << "\" stroke=\"#444\"/><text x=\"" << X(t) << "\" y=\"" << y0 + h + 16 << "\" text-anchor=\"middle\">" << Num(t) << "</text>\n";
-    for (double t : Ticks(ymin, ymax))
+        << "\" stroke=\"#444\"/><text x=\"" << X(t) << "\" y=\"" << y0 + h + 16 << "\" text-anchor=\"middle\">" << label << "</text>\n";
+    for (const auto& [t, label] : SvgTicks(ymin, ymax))
       s << "<line x1=\"" << left - 4 << "\" x2=\"" << left + w << "\" y1=\"" << Y(t) << "\" y2=\"" << Y(t)
-        << "\" stroke=\"#ddd\"/><text x=\"" << left - 6 << "\" y=\"" << Y(t) + 4 << "\" text-anchor=\"end\">" << Num(t) << "</text>\n";
+        << "\" stroke=\"#ddd\"/><text x=\"" << left - 6 << "\" y=\"" << Y(t) + 4 << "\" text-anchor=\"end\">" << label << "</text>\n";
     s << "<text x=\"" << left + w / 2 << "\" y=\"" << y0 + h + 32 << "\" text-anchor=\"middle\">" << HtmlEscape(P.x_label) << "</text>\n";
     s << "<text transform=\"translate(" << 16 << "," << y0 + h / 2 << ") rotate(-90)\" text-anchor=\"middle\">"
       << HtmlEscape(P.y_label) << "</text>\n";

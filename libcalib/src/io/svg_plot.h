@@ -46,6 +46,16 @@ class SvgPlot {
   std::vector<Panel> panels_;
 };
 
+// The tick rule of every report plot, the fleet report's too (scripts/agvcal_fleet/svg.py
+// follows it; fleet_unit compares the two through tests/tools/svg_ticks): about five round
+// values over [lo, hi], the step 2, 5 or 10 times a power of ten, from the first multiple of
+// the step at or above lo; labels with 4 significant digits, more where the step needs them.
+struct SvgTick {
+  double value;
+  std::string label;
+};
+std::vector<SvgTick> SvgTicks(double lo, double hi);
+
 // A diverging colour for v in [lo, hi]: blue at lo, light grey in the middle, red at hi.
 std::string ColorRamp(double v, double lo, double hi);
 
