@@ -53,8 +53,8 @@ def _line(t, y, w):
 
 def _best_step(y, w, min_side):
     """The split with the largest |z| of every row of y (series in time order) at unit scale:
-    k (first index of the new level), mean before, after, their variances, z, and the chi2
-    of the two-level model, one per row."""
+    k (first index of the new level), mean before, after, their variances, and the chi2 of
+    the two-level model, one per row."""
     rows, n = y.shape
     ks = np.arange(min_side, n - min_side + 1)
     w_before, wy_before = np.cumsum(w, 1), np.cumsum(w * y, 1)
@@ -67,7 +67,7 @@ def _best_step(y, w, min_side):
     k, m0, m1, w0, w1 = ks[i], m0[r, i], m1[r, i], w0[r, i], w1[r, i]
     level = np.where(np.arange(n) < k[:, None], m0[:, None], m1[:, None])
     chi2 = (w * (y - level) ** 2).sum(1)
-    return k, m0, m1, 1.0 / w0, 1.0 / w1, z[r, i], chi2
+    return k, m0, m1, 1.0 / w0, 1.0 / w1, chi2
 
 
 def drift_test(t, y, s, scale=1.0):
@@ -86,7 +86,7 @@ def step_test(y, s, scale=1.0, min_side=2):
     n = len(y)
     if n < 2 * min_side:
         return None
-    k, m0, m1, v0, v1, _, chi2 = (a[0] for a in _best_step(np.asarray(y, dtype=float)[None, :],
+    k, m0, m1, v0, v1, chi2 = (a[0] for a in _best_step(np.asarray(y, dtype=float)[None, :],
                                                              _weights(s)[None, :], min_side))
     m0, m1 = float(m0), float(m1)
     sd = scale * math.sqrt(float(v0) + float(v1))
@@ -113,7 +113,7 @@ def null_median_best_chi2(n):
         w = np.ones_like(y)
         best = _line(np.arange(n, dtype=float), y, w)[3]
         if n >= 4:
-            best = np.minimum(best, _best_step(y, w, 2)[6])
+            best = np.minimum(best, _best_step(y, w, 2)[5])
         _NULL_MEDIAN[n] = median(best)
     return _NULL_MEDIAN[n]
 
