@@ -22,7 +22,6 @@ import argparse
 import json
 import os
 import platform
-import shutil
 import subprocess
 import sys
 import time
@@ -201,7 +200,7 @@ def main():
             os.remove(db)
         el, l0, l1, cpu = run_fleet(fy, db, workers=2, nice=args.nice)
         n = count(db)
-        lines += ["", f"## Whole fleet, LocalCluster of 2 workers", "",
+        lines += ["", "## Whole fleet, LocalCluster of 2 workers", "",
                   f"{n} recordings in {el / 60:.1f} min: {60 * n / el:.1f} recordings/min "
                   f"(CPU {cpu / n:.2f} s per recording; load average {l0:.1f} before, {l1:.1f} after)"]
         js = os.path.join(args.work, "findings.json")

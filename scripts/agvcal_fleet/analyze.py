@@ -96,7 +96,7 @@ def analyze(robots, alpha=0.01, min_recordings=5, window_days=7.0, fleet_min_rob
     size, size_std, detail (dict), why (one line)."""
     # 1. the series, and the pooled noise scale per (drive, parameter)
     series = {}
-    fits = {}
+    keys = []  # (robot, parameter, drive) of every series, in order
     for rid, rob in robots.items():
         names = sorted({n for r in rob["recordings"] for n in r.params})
         for name in names:
@@ -107,77 +107,77 @@ def analyze(robots, alpha=0.01, min_recordings=5, window_days=7.0, fleet_min_rob
             y = [r.params[name][0] for r in recs]
             s = [r.params[name][1] for r in recs]
             series.setdefault(rid, {})[name] = {"recs": recs, "t": t, "y": y, "s": s}
-            # the scatter about the better of the two models, so that a robot that drifts or
-            # steps does not widen the scale (with few robots a single one would decide it)
-            chi2 = stats.drift_test(t, y, s)["chi2"]
-            st = stats.step_test(y, s)
-            if st:
-                chi2 = min(chi2, st["chi2"])
-            fits.setdefault((rob["drive"], name), []).append((chi2, len(y)))
+            keys.append((rid, name, rob["drive"]))
+    all_series = [series[rid][name] for rid, name, _ in keys]
+    lines = [(x["t"], x["y"], x["s"]) for x in all_series]
+    levels = [(x["y"], x["s"]) for x in all_series]
+    fits = {}
+    for (rid, name, drive), d, st in zip(keys, stats.drift_tests(lines), stats.step_tests(levels)):
+        # the scatter about the better of the two models, so that a robot that drifts or
+        # steps does not widen the scale (with few robots a single one would decide it)
+        chi2 = min(d["chi2"], st["chi2"]) if st else d["chi2"]
+        fits.setdefault((drive, name), []).append((chi2, len(series[rid][name]["y"])))
     scales = {k: stats.pooled_scale(v) for k, v in fits.items()}
-    m = 2 * sum(len(v) for v in series.values())
+    m = 2 * len(keys)
     findings = []
 
     def adjusted(p):
         return min(1.0, p * m)
 
     # 2. drift and step per series
-    for rid, per in series.items():
-        drive = robots[rid]["drive"]
-        for name, ser in per.items():
-            t, y, s, recs = ser["t"], ser["y"], ser["s"], ser["recs"]
-            f = scales[(drive, name)]
-            d = stats.drift_test(t, y, s, f)
-            st = stats.step_test(y, s, f)
-            d["p_adj"] = adjusted(d["p"])
-            ser.update(scale=f, drift=d, step=st)
-            if st:
-                st["p_adj"] = adjusted(st["p"])
-            drift_sig = d["p_adj"] <= alpha
-            step_sig = st is not None and st["p_adj"] <= alpha
-            if not (drift_sig or step_sig):
-                ser["model"] = "constant"
-                continue
-            kind = "step" if step_sig and (not drift_sig or st["chi2"] < d["chi2"]) else "drift"
-            ser["model"] = kind
-            span = t[-1] - t[0]
-            nominal = recs[0].params[name][2]
-            if kind == "drift":
-                first = None
-                for k in range(max(3, min_recordings), len(y) + 1):
-                    dk = stats.drift_test(t[:k], y[:k], s[:k], f)
-                    if adjusted(dk["p"]) <= alpha:
-                        first = k - 1
-                        break
-                first = len(y) - 1 if first is None else first
-                fr = recs[first]
-                findings.append({
-                    "robot_id": rid, "kind": "drift", "subject": name, "p_value": d["p_adj"],
-                    "first_sha256": fr.sha, "first_utime": fr.utime, "change_utime": None,
-                    "size": d["slope"] * span, "size_std": d["slope_std"] * span,
-                    "detail": {"per_30_days": d["slope"] * 30, "per_30_days_std": d["slope_std"] * 30,
-                               "z": d["z"], "scale": f, "recordings": len(y), "span_days": span,
-                               "step_p": st["p_adj"] if st else None, "nominal": nominal,
-                               "first_index": first, "first_path": fr.path}})
-            else:
-                k = st["k"]
-                alarm = None
-                for j in range(4, len(y) + 1):
-                    sj = stats.step_test(y[:j], s[:j], f)
-                    if sj and adjusted(sj["p"]) <= alpha:
-                        alarm = j - 1
-                        break
-                fr = recs[k]
-                findings.append({
-                    "robot_id": rid, "kind": "step", "subject": name, "p_value": st["p_adj"],
-                    "first_sha256": fr.sha, "first_utime": fr.utime, "change_utime": fr.utime,
-                    "size": st["size"], "size_std": st["size_std"],
-                    "detail": {"z": st["z"], "scale": f, "recordings": len(y), "change_index": k,
-                               "last_before_utime": recs[k - 1].utime, "before": st["before"],
-                               "after": st["after"], "splits": st["splits"],
-                               "drift_p": d["p_adj"], "nominal": nominal, "first_path": fr.path,
-                               "alarm_index": alarm,
-                               "alarm_utime": recs[alarm].utime if alarm is not None else None}})
+    f_all = [scales[(drive, name)] for _, name, drive in keys]
+    for (rid, name, _), ser, f, d, st in zip(keys, all_series, f_all, stats.drift_tests(lines, f_all),
+                                             stats.step_tests(levels, f_all)):
+        t, y, s, recs = ser["t"], ser["y"], ser["s"], ser["recs"]
+        d["p_adj"] = adjusted(d["p"])
+        ser.update(scale=f, drift=d, step=st)
+        if st:
+            st["p_adj"] = adjusted(st["p"])
+        drift_sig = d["p_adj"] <= alpha
+        step_sig = st is not None and st["p_adj"] <= alpha
+        if not (drift_sig or step_sig):
+            ser["model"] = "constant"
+            continue
+        kind = "step" if step_sig and (not drift_sig or st["chi2"] < d["chi2"]) else "drift"
+        ser["model"] = kind
+        span = t[-1] - t[0]
+        nominal = recs[0].params[name][2]
+        if kind == "drift":
+            first = None
+            for k in range(max(3, min_recordings), len(y) + 1):
+                dk = stats.drift_test(t[:k], y[:k], s[:k], f)
+                if adjusted(dk["p"]) <= alpha:
+                    first = k - 1
+                    break
+            first = len(y) - 1 if first is None else first
+            fr = recs[first]
+            findings.append({
+                "robot_id": rid, "kind": "drift", "subject": name, "p_value": d["p_adj"],
+                "first_sha256": fr.sha, "first_utime": fr.utime, "change_utime": None,
+                "size": d["slope"] * span, "size_std": d["slope_std"] * span,
+                "detail": {"per_30_days": d["slope"] * 30, "per_30_days_std": d["slope_std"] * 30,
+                           "z": d["z"], "scale": f, "recordings": len(y), "span_days": span,
+                           "step_p": st["p_adj"] if st else None, "nominal": nominal,
+                           "first_index": first, "first_path": fr.path}})
+        else:
+            k = st["k"]
+            alarm = None
+            for j in range(4, len(y) + 1):
+                sj = stats.step_test(y[:j], s[:j], f)
+                if sj and adjusted(sj["p"]) <= alpha:
+                    alarm = j - 1
+                    break
+            fr = recs[k]
+            findings.append({
+                "robot_id": rid, "kind": "step", "subject": name, "p_value": st["p_adj"],
+                "first_sha256": fr.sha, "first_utime": fr.utime, "change_utime": fr.utime,
+                "size": st["size"], "size_std": st["size_std"],
+                "detail": {"z": st["z"], "scale": f, "recordings": len(y), "change_index": k,
+                           "last_before_utime": recs[k - 1].utime, "before": st["before"],
+                           "after": st["after"], "splits": st["splits"],
+                           "drift_p": d["p_adj"], "nominal": nominal, "first_path": fr.path,
+                           "alarm_index": alarm,
+                           "alarm_utime": recs[alarm].utime if alarm is not None else None}})
 
     # 3. effects per robot: present now, and onsets (found in two consecutive recordings
     #    after two without, and in at most a quarter of the recordings before)

@@ -11,9 +11,7 @@ Every page carries a small script that, opened with `#check`, checks its own lay
 horizontal overflow, every image loaded, no text overflowing its box) and writes the
 findings into the page (element #layout-check), for the headless-browser test.
 """
-import datetime
 import html
-import json
 import math
 import os
 import re
@@ -119,7 +117,7 @@ def write(out, robots, result, db):
     # -- index ----------------------------------------------------------------------------
     n_rec = sum(len(r["recordings"]) for r in robots.values())
     n_fail = sum(1 for rob in robots.values() for r in rob["recordings"] if r.solve_exit != 0 or r.diag_exit != 0)
-    b = [f"<h1>Fleet calibration report</h1>",
+    b = ["<h1>Fleet calibration report</h1>",
          f"<p>{len(robots)} robots, {n_rec} recordings from {an.date(xlo * an.DAY_US)} to "
          f"{an.date(xhi * an.DAY_US)}; {n_fail} failed. <b>{len(attention)} robot"
          f"{'s' * (len(attention) != 1)} need attention.</b> {result['tests']} trend tests "

@@ -70,30 +70,61 @@ def _best_step(y, w, min_side):
     return k, m0, m1, 1.0 / w0, 1.0 / w1, chi2
 
 
+def _by_length(series):
+    """{n: indices of the series of n values}: series of one length are computed together."""
+    groups = {}
+    for i, x in enumerate(series):
+        groups.setdefault(len(x[0]), []).append(i)
+    return groups
+
+
+def drift_tests(series, scales=None):
+    """`drift_test` of every (t, y, s) of SERIES with its noise scale (default 1), in order."""
+    out = [None] * len(series)
+    for n, idx in _by_length(series).items():
+        t, y, s = (np.array([series[i][c] for i in idx], dtype=float) for c in range(3))
+        f = np.array([1.0 if scales is None else scales[i] for i in idx])
+        a, b, var_b, chi2, tw = _line(t, y, _weights(s))
+        sd = f * np.sqrt(var_b)
+        ok = np.isfinite(sd) & (sd > 0)
+        z = np.where(ok, b / np.where(ok, sd, 1.0), 0.0)
+        p = 2.0 * special.ndtr(-np.abs(z))
+        for j, i in enumerate(idx):
+            out[i] = {"slope": float(b[j]), "slope_std": float(sd[j]), "z": float(z[j]), "p": float(p[j]),
+                      "chi2": float(chi2[j]), "a": float(a[j]), "tw": float(tw[j])}
+    return out
+
+
 def drift_test(t, y, s, scale=1.0):
     """{slope, slope_std, z, p, chi2 (of the line, unit scale), a, tw}."""
-    a, b, var_b, chi2, tw = (float(v) for v in _line(np.asarray(t, dtype=float),
-                                                     np.asarray(y, dtype=float), _weights(s)))
-    sd = scale * math.sqrt(var_b) if math.isfinite(var_b) else math.inf
-    z = b / sd if sd > 0 and math.isfinite(sd) else 0.0
-    return {"slope": b, "slope_std": sd, "z": z, "p": p_two_sided(z), "chi2": chi2, "a": a, "tw": tw}
+    return drift_tests([(t, y, s)], [scale])[0]
+
+
+def step_tests(series, scales=None, min_side=2):
+    """`step_test` of every (y, s) of SERIES with its noise scale (default 1), in order."""
+    out = [None] * len(series)
+    for n, idx in _by_length(series).items():
+        if n < 2 * min_side:
+            continue
+        y, s = (np.array([series[i][c] for i in idx], dtype=float) for c in range(2))
+        f = np.array([1.0 if scales is None else scales[i] for i in idx])
+        k, m0, m1, v0, v1, chi2 = _best_step(y, _weights(s), min_side)
+        sd = f * np.sqrt(v0 + v1)
+        z = (m1 - m0) / sd
+        splits = n - 2 * min_side + 1
+        p = np.minimum(1.0, splits * (2.0 * special.ndtr(-np.abs(z))))
+        for j, i in enumerate(idx):
+            out[i] = {"k": int(k[j]), "before": float(m0[j]), "after": float(m1[j]),
+                      "size": float(m1[j] - m0[j]), "size_std": float(sd[j]), "z": float(z[j]),
+                      "splits": splits, "p": float(p[j]), "chi2": float(chi2[j])}
+    return out
 
 
 def step_test(y, s, scale=1.0, min_side=2):
     """Best change point of the series (in time order): {k (first index of the new level),
     before, after, size, size_std, z, p (Bonferroni over the splits), splits, chi2 (of the
     two-level model, unit scale)}, or None with fewer than 2 * min_side values."""
-    n = len(y)
-    if n < 2 * min_side:
-        return None
-    k, m0, m1, v0, v1, chi2 = (a[0] for a in _best_step(np.asarray(y, dtype=float)[None, :],
-                                                             _weights(s)[None, :], min_side))
-    m0, m1 = float(m0), float(m1)
-    sd = scale * math.sqrt(float(v0) + float(v1))
-    z = (m1 - m0) / sd
-    splits = n - 2 * min_side + 1
-    return {"k": int(k), "before": m0, "after": m1, "size": m1 - m0, "size_std": sd, "z": z,
-            "splits": splits, "p": min(1.0, splits * p_two_sided(z)), "chi2": float(chi2)}
+    return step_tests([(y, s)], [scale], min_side)[0]
 
 
 def median(xs):

@@ -7,7 +7,6 @@ import signal
 import sqlite3
 import subprocess
 import sys
-import time
 
 sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
 from fleetlib import (FIXTURE, FLEET_CMD, SUBSET, check, finish, fleet, hashes_of,  # noqa: E402
