@@ -9,6 +9,7 @@
 #include "agvcal/heartbeat_t.hpp"
 #include "calib/core/errors.h"
 #include "calib/io/messages.h"
+#include "calib/live/commander.h"
 
 namespace agvcal_process {
 
@@ -119,6 +120,33 @@ std::optional<calib::MotionSource> MotionSourceOption(const Args& args,
     if (name == calib::MotionSourceName(allowed[i])) return allowed[i];
   }
   throw calib::InputError("command line", "--source", "expected " + choices + ", got '" + name + "'");
+}
+
+std::optional<calib::MotionSource> MotionSourceOption(const CommandLine& args,
+                                                      const std::vector<calib::MotionSource>& allowed,
+                                                      std::optional<calib::MotionSource> fallback) {
+  if (!args.Has("--source")) return fallback;
+  const std::string name = args.Get("--source", "");
+  std::string choices;
+  for (size_t i = 0; i < allowed.size(); ++i) {
+    choices += (i == 0 ? "" : i + 1 == allowed.size() ? " or " : ", ");
+    choices += calib::MotionSourceName(allowed[i]);
+    if (name == calib::MotionSourceName(allowed[i])) return allowed[i];
+  }
+  throw calib::InputError("command line", "--source", "expected " + choices + ", got '" + name + "'");
+}
+
+std::string TrajectoryNamesText() {
+  std::string text;
+  for (const calib::DriveType type :
+       {calib::DriveType::kDifferential, calib::DriveType::kTricycle, calib::DriveType::kDualSteer}) {
+    std::string line = std::string("  ") + calib::DriveTypeName(type) + ":";
+    line.resize(16, ' ');
+    for (const std::string& trajectory : calib::TrajectoryNames(type)) line += trajectory + " ";
+    line.pop_back();
+    text += (text.empty() ? "" : "\n") + line;
+  }
+  return text;
 }
 
 calib::MotionSource LiveMotionSource(const calib::RobotDescription& robot) {

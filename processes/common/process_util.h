@@ -18,6 +18,7 @@
 #include "calib/calibrate/calibration.h"
 #include "calib/core/robot.h"
 #include "calib/io/recording.h"
+#include "common/command_line.h"
 
 namespace agvcal_process {
 
@@ -87,6 +88,14 @@ std::optional<int> CheckUsage(const Args& args, const char* usage, size_t positi
 std::optional<calib::MotionSource> MotionSourceOption(const Args& args,
                                                       const std::vector<calib::MotionSource>& allowed,
                                                       std::optional<calib::MotionSource> fallback);
+
+std::optional<calib::MotionSource> MotionSourceOption(const CommandLine& args,
+                                                      const std::vector<calib::MotionSource>& allowed,
+                                                      std::optional<calib::MotionSource> fallback);
+
+// The excitation trajectories the commander knows, one line per drive type
+// ("differential: default umbmark ..."): for --help.
+std::string TrajectoryNamesText();
 
 // The live calibrations' default sensor: the robot file's 2D lidar if it has one, else
 // its external pose source.
