@@ -50,8 +50,13 @@ def commands():
     found.update({"agvcal " + s: [agvcal, s] for s in subs})
     for main in sorted(glob.glob(os.path.join(SRC, "processes", "*", "*_main.cc"))):
         folder = os.path.basename(os.path.dirname(main))
-        if folder != "agvcal":
-            found["agvcal-" + folder] = [os.path.join(BUILD, "agvcal-" + folder)]
+        exe = os.path.join(BUILD, "agvcal-" + folder)
+        if folder == "agvcal":
+            continue
+        if os.access(exe, os.X_OK):
+            found["agvcal-" + folder] = [exe]
+        else:
+            fail("%s: not built" % exe)
     return found
 
 
