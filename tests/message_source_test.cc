@@ -160,32 +160,5 @@ TEST(BusSourceTest, TheEndOfAFileProvidersLogIsTheEnd) {
   EXPECT_EQ(stamps, (std::vector<int64_t>{100, 200}));
 }
 
-TEST(SourceOptionTest, OneParserForEveryCommand) {
-  using agvcal_process::Args;
-  using agvcal_process::MotionSourceOption;
-  Args none, pose, imu;
-  pose.options["--source"] = "pose";
-  imu.options["--source"] = "imu";
-  const std::vector<MotionSource> live = {MotionSource::kLidar2d, MotionSource::kPose};
-  EXPECT_EQ(MotionSourceOption(none, live, MotionSource::kLidar2d), MotionSource::kLidar2d);
-  EXPECT_EQ(MotionSourceOption(pose, live, MotionSource::kLidar2d), MotionSource::kPose);
-  EXPECT_FALSE(MotionSourceOption(none, {MotionSource::kLidar2d, MotionSource::kPose, MotionSource::kImu},
-                                  std::nullopt));
-  try {
-    MotionSourceOption(imu, live, MotionSource::kLidar2d);
-    FAIL() << "imu accepted";
-  } catch (const InputError& e) {
-    EXPECT_STREQ(e.what(), "command line: --source: expected lidar2d or pose, got 'imu'");
-  }
-  Args typo;
-  typo.options["--source"] = "lidar";
-  try {
-    MotionSourceOption(typo, {MotionSource::kLidar2d, MotionSource::kPose, MotionSource::kImu}, std::nullopt);
-    FAIL() << "lidar accepted";
-  } catch (const InputError& e) {
-    EXPECT_STREQ(e.what(), "command line: --source: expected lidar2d, pose or imu, got 'lidar'");
-  }
-}
-
 }  // namespace
 }  // namespace calib

@@ -15,50 +15,57 @@
 namespace agvcal_cli {
 
 namespace {
-const char* kUsage = R"(usage: agvcal diagnose ROBOT.yaml LOG [--sim SIM_LOG] [--out REPORT.json] [--report DIR]
-                       [--write-sim SIM.yaml] [--alpha A] [--block-s S] [--drift-window S] [--jobs N]
-                       [--quiet]
-
-Compares the recording with the robot's calibrated model and names the physics
+// The command line: arguments, options and the help made from them.
+void Declare(agvcal_process::CommandLine* args) {
+  args->Description(R"(Compares the recording with the robot's calibrated model and names the physics
 the model leaves out (spec/effects.md): where and under what motion the residual
 stands out, each effect fitted jointly with the calibration, tested against a
 false-alarm rate over the whole catalogue, and proven on held-out data
-(alternating time blocks the fit never sees). Prints a plain-words summary.
-  --out REPORT.json   write the report (spec/cli.md), atomically; besides spec/cli.md's
-                      keys: candidates[] (every candidate: status, estimate value/std,
-                      p_value, delta_bic, detectable, note saying why a significant one
-                      was not named), fit.outlier_share and fit.outlier_correlation (the
-                      share of intervals set aside, which is only what neither the final
-                      model nor any candidate explains, and its correlation with |speed|,
-                      |acceleration|, |turn rate|, |turn-rate change|, |centripetal|,
-                      |steering rate|); docs/mismatch.md lists every key
-  --report DIR        human report (docs/reports.md; a folder, created if missing, an earlier
-                      agvcal report there cleared): index.html with the candidates and
-                      the calibration as tables, summary.txt and SVG plots (residual over
-                      time before/after, each effect's signature and its held-out error
-                      per stretch, the route with the spans marked, actuation close-ups)
-  --sim SIM_LOG       also diagnose a simulator's recording of the same commands and
-                      report where the two differ (REPORT.json key "sim_comparison")
-  --write-sim FILE    a simulation config (truth = refitted calibration, effects found)
-                      that makes the simulator reproduce this robot (world and sensors:
-                      the simulator's defaults; edit to match)
-  --alpha A           family-wise false-alarm rate over all candidates (default 0.01)
-  --block-s S         length of the alternating fit / held-out blocks (default 10 s)
-  --drift-window S    held-out dead reckoning is judged over windows of S seconds
-                      (default 2, at most --block-s)
-  --jobs N            threads for the candidates' independent fits (default: the machine's
-                      cores, at most 2); the report is the same for any N
-  --quiet             no progress on stderr (else a line per step; a long run's candidate
-                      lines say how many are left and about how long they take)
-Exit status: 0 done (effects found or not); 2 unusable input; 3 the recording cannot
-determine the calibration itself; 1 internal error.
-)";
+(alternating time blocks the fit never sees). Prints a plain-words summary.)")
+      .Positional("ROBOT.yaml", "the robot file (spec/robot.md), calibrated")
+      .Positional("LOG", "the robot's recording (lcm-logger)")
+      .Option("--out", "REPORT.json",
+              "write the report (spec/cli.md), atomically; besides spec/cli.md's\n"
+              "keys: candidates[] (every candidate: status, estimate value/std,\n"
+              "p_value, delta_bic, detectable, note saying why a significant one\n"
+              "was not named), fit.outlier_share and fit.outlier_correlation (the\n"
+              "share of intervals set aside, which is only what neither the final\n"
+              "model nor any candidate explains, and its correlation with |speed|,\n"
+              "|acceleration|, |turn rate|, |turn-rate change|, |centripetal|,\n"
+              "|steering rate|); docs/mismatch.md lists every key")
+      .Option("--report", "DIR",
+              "human report (docs/reports.md; a folder, created if missing, an\n"
+              "earlier agvcal report there cleared): index.html with the candidates and\n"
+              "the calibration as tables, summary.txt and SVG plots (residual over\n"
+              "time before/after, each effect's signature and its held-out error\n"
+              "per stretch, the route with the spans marked, actuation close-ups)")
+      .Option("--sim", "SIM_LOG",
+              "also diagnose a simulator's recording of the same commands and\n"
+              "report where the two differ (REPORT.json key \"sim_comparison\")")
+      .Option("--write-sim", "FILE",
+              "a simulation config (truth = refitted calibration, effects found)\n"
+              "that makes the simulator reproduce this robot (world and sensors:\n"
+              "the simulator's defaults; edit to match)")
+      .Option("--alpha", "A", "family-wise false-alarm rate over all candidates (default 0.01)")
+      .Option("--block-s", "S", "length of the alternating fit / held-out blocks (default 10 s)")
+      .Option("--drift-window", "S",
+              "held-out dead reckoning is judged over windows of S seconds\n"
+              "(default 2, at most --block-s)")
+      .Option("--jobs", "N",
+              "threads for the candidates' independent fits (default: the machine's\n"
+              "cores, at most 2); the report is the same for any N")
+      .Flag("--quiet",
+            "no progress on stderr (else a line per step; a long run's candidate\n"
+            "lines say how many are left and about how long they take)")
+      .Footer("Exit status: 0 done (effects found or not); 2 unusable input; 3 the recording cannot\n"
+              "determine the calibration itself; 1 internal error.\n");
+}
 }  // namespace
 
 int Diagnose(int argc, char** argv) {
-  const auto args = agvcal_process::ParseArgs(
-      argc, argv, 2, {"--sim", "--out", "--report", "--write-sim", "--alpha", "--block-s", "--drift-window", "--jobs"}, {"--quiet"});
-  if (const auto status = agvcal_process::CheckUsage(args, kUsage, 2)) return *status;
+  agvcal_process::CommandLine args("agvcal diagnose");
+  Declare(&args);
+  if (const auto status = args.Parse(argc, argv, 2)) return *status;
   const calib::RobotDescription robot = calib::LoadRobotFile(args.positional[0]);
   const std::string log_path = args.positional[1];
   calib::DiagnoseOptions options;

@@ -11,20 +11,25 @@
 namespace agvcal_cli {
 
 namespace {
-const char* kUsage = R"(usage: agvcal fuse ROBOT.yaml LOG [--out POSES.csv] [--policy filter|average]
-
-Wheel odometry fused with the gyro (the code of agvcal-fusion, on a recording;
+// The command line: arguments, options and the help made from them.
+void Declare(agvcal_process::CommandLine* args) {
+  args->Description(R"(Wheel odometry fused with the gyro (the code of agvcal-fusion, on a recording;
 the same numbers as a live replay). ROBOT.yaml: calibrated by `agvcal solve
 --source imu`. Prints the final pose; --out writes one line per wheel state:
-utime,x,y,theta,heading_std,gyro_bias (theta unwrapped, rad).
-  --policy filter|average  short motions: Kalman filter (default) or the mean of
-                           wheel and gyro below one wheel circumference (docs/imu.md)
-)";
+utime,x,y,theta,heading_std,gyro_bias (theta unwrapped, rad).)")
+      .Positional("ROBOT.yaml", "the robot file (spec/robot.md), with imu")
+      .Positional("LOG", "the recording (lcm-logger)")
+      .Option("--out", "POSES.csv", "write the fused poses (atomically)")
+      .Option("--policy", "filter|average",
+              "short motions: Kalman filter (default) or the mean of\n"
+              "wheel and gyro below one wheel circumference (docs/imu.md)");
+}
 }  // namespace
 
 int Fuse(int argc, char** argv) {
-  const auto args = agvcal_process::ParseArgs(argc, argv, 2, {"--out", "--policy"}, {});
-  if (const auto status = agvcal_process::CheckUsage(args, kUsage, 2)) return *status;
+  agvcal_process::CommandLine args("agvcal fuse");
+  Declare(&args);
+  if (const auto status = args.Parse(argc, argv, 2)) return *status;
   const calib::RobotDescription robot = calib::LoadRobotFile(args.positional[0]);
   calib::FusedOdometryOptions options;
   const std::string policy = args.Get("--policy", "filter");

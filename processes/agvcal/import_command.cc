@@ -10,35 +10,40 @@
 namespace agvcal_cli {
 
 namespace {
-const char* kUsage = R"(usage: agvcal import FORMAT INPUT OUT.log [--robot ROBOT.yaml] [--quiet]
-
-Turns a dataset recorded elsewhere into an lcm-logger recording of the messages
+// The command line: arguments, options and the help made from them.
+void Declare(agvcal_process::CommandLine* args) {
+  args->Description(R"(Turns a dataset recorded elsewhere into an lcm-logger recording of the messages
 of spec/messages.md (WHEELS, SCAN, POSE), so that it can be calibrated like a
-live recording. INPUT may be gzip-compressed. OUT.log is written atomically.
-FORMAT:
-  carmen    CARMEN log: FLASER/RAWLASER1 -> SCAN; ODOM (or the odometry in the
-            FLASER lines) -> WHEELS of a differential drive, inverted with the
-            robot file's nominal radii and track
-  mines     Mines rover log (CoreSLAM exp*.dat): ticks -> WHEELS, URG -> SCAN
-  lego      Brenner's Lego robot: INPUT = the motor file; the scan file beside
-            it (motors -> scan in the name) -> SCAN
-  optiodom  OptiOdom run <id>_run-NN.csv (metadata file beside it): ticks and
-            steering -> WHEELS, OptiTrack ground truth -> POSE
-  pose-csv  external poses: time,x,y,theta[,3 variances | 9 covariances];
-            integer time = us, decimal = s; '#' comments, optional header
-  --robot ROBOT.yaml  robot file (spec/robot.md): wheel names, nominal values,
-                      channels; required except for pose-csv. Bundled:
-                      config/robots/datasets/*.yaml (docs/datasets.md)
-  --quiet             no summary on stderr
-Records repeating their predecessor's stamp are dropped and counted; a stamp
-going backwards, a malformed line or a truncated file is an error naming the
-file and line (exit 2).
-)";
+live recording. INPUT may be gzip-compressed. OUT.log is written atomically.)")
+      .Positional("FORMAT", "carmen, mines, lego, optiodom or pose-csv (below)")
+      .Positional("INPUT", "the dataset's file")
+      .Positional("OUT.log", "the recording to write")
+      .Option("--robot", "ROBOT.yaml",
+              "robot file (spec/robot.md): wheel names, nominal values,\n"
+              "channels; required except for pose-csv. Bundled:\n"
+              "config/robots/datasets/*.yaml (docs/datasets.md)")
+      .Flag("--quiet", "no summary on stderr")
+      .Footer("FORMAT:\n"
+              "  carmen    CARMEN log: FLASER/RAWLASER1 -> SCAN; ODOM (or the odometry in the\n"
+              "            FLASER lines) -> WHEELS of a differential drive, inverted with the\n"
+              "            robot file's nominal radii and track\n"
+              "  mines     Mines rover log (CoreSLAM exp*.dat): ticks -> WHEELS, URG -> SCAN\n"
+              "  lego      Brenner's Lego robot: INPUT = the motor file; the scan file beside\n"
+              "            it (motors -> scan in the name) -> SCAN\n"
+              "  optiodom  OptiOdom run <id>_run-NN.csv (metadata file beside it): ticks and\n"
+              "            steering -> WHEELS, OptiTrack ground truth -> POSE\n"
+              "  pose-csv  external poses: time,x,y,theta[,3 variances | 9 covariances];\n"
+              "            integer time = us, decimal = s; '#' comments, optional header\n"
+              "Records repeating their predecessor's stamp are dropped and counted; a stamp\n"
+              "going backwards, a malformed line or a truncated file is an error naming the\n"
+              "file and line (exit 2).\n");
+}
 }  // namespace
 
 int Import(int argc, char** argv) {
-  const auto args = agvcal_process::ParseArgs(argc, argv, 2, {"--robot"}, {"--quiet"});
-  if (const auto status = agvcal_process::CheckUsage(args, kUsage, 3)) return *status;
+  agvcal_process::CommandLine args("agvcal import");
+  Declare(&args);
+  if (const auto status = args.Parse(argc, argv, 2)) return *status;
   const std::string& format = args.positional[0];
   std::optional<calib::RobotDescription> robot;
   if (args.Has("--robot")) robot = calib::LoadRobotFile(args.Get("--robot", ""));

@@ -11,18 +11,22 @@
 namespace agvcal_cli {
 
 namespace {
-const char* kUsage = R"(usage: agvcal info LOG [--json]
-
-Lists the channels of an lcm-logger recording: message type, count, time span
+// The command line: arguments, options and the help made from them.
+void Declare(agvcal_process::CommandLine* args) {
+  args->Description(R"(Lists the channels of an lcm-logger recording: message type, count, time span
 and rate (from the messages' utime), and messages out of time order or with
 duplicated stamps. Fails with exit status 2 on a corrupt or truncated log or a
-message that does not decode as the type of spec/messages.md.
-)";
+message that does not decode as the type of spec/messages.md.)")
+      .Positional("LOG", "the recording (lcm-logger)")
+      .Flag("--json", "print the summary as JSON (channels with type, count, first and last\n"
+            "utime, rate, out-of-order and duplicated counts)");
+}
 }  // namespace
 
 int Info(int argc, char** argv) {
-  const auto args = agvcal_process::ParseArgs(argc, argv, 2, {}, {"--json"});
-  if (const auto status = agvcal_process::CheckUsage(args, kUsage, 1)) return *status;
+  agvcal_process::CommandLine args("agvcal info");
+  Declare(&args);
+  if (const auto status = args.Parse(argc, argv, 2)) return *status;
   const calib::LogSummary summary = calib::SummarizeLog(args.positional[0]);
   if (args.Has("--json")) {
     nlohmann::json out;

@@ -12,33 +12,38 @@
 namespace agvcal_cli {
 
 namespace {
-const char* kUsage = R"(usage: agvcal recal ROBOT.yaml LOG --config RECAL.yaml [--out-robot CAL.yaml]
-                    [--decisions DECISIONS.jsonl] [--source lidar2d|pose] [--report DIR]
-
-Recalibration during normal operation, on a recording: what agvcal-recal does
+// The command line: arguments, options and the help made from them.
+void Declare(agvcal_process::CommandLine* args) {
+  args->Description(R"(Recalibration during normal operation, on a recording: what agvcal-recal does
 live, with the same decisions. Segments of the route (zones of the config in the
 POSE frame, or odometry distance windows) are collected; every `decision.segments`
 of them the robot is calibrated on some and the result compared with the
 calibration in use on the others; it is accepted only when significantly better
-there and consistent with the calibration in use (docs/recalibration.md).
-  --config RECAL.yaml      zones or distance windows, decision levels, prior uncertainties
-  --out-robot CAL.yaml     the accepted calibration, as a robot file (written atomically);
-                           when it exists, the calibration in use starts from it
-  --decisions FILE         every decision appended as a JSON line (atomically)
-  --source lidar2d|pose    the sensor whose motion calibrates (default lidar2d if the robot
-                           file has one, else pose)
-  --report DIR             human report (docs/reports.md): the decisions, the calibration in
-                           use at the start and the end, every decision's held-out segments,
-                           and the residual, route and parameter plots of the last fit
-Prints one line per decision. Exit status: 0 done (whatever was decided); 2 unusable
-input (robot file, config, log).
-)";
+there and consistent with the calibration in use (docs/recalibration.md).)")
+      .Positional("ROBOT.yaml", "the robot file (spec/robot.md)")
+      .Positional("LOG", "the recording (lcm-logger)")
+      .Option("--config", "RECAL.yaml", "zones or distance windows, decision levels, prior\n"
+              "uncertainties (required)")
+      .Option("--out-robot", "CAL.yaml",
+              "the accepted calibration, as a robot file (written atomically);\n"
+              "when it exists, the calibration in use starts from it")
+      .Option("--decisions", "FILE", "every decision appended as a JSON line (atomically)")
+      .Option("--source", "lidar2d|pose",
+              "the sensor whose motion calibrates (default lidar2d if the robot\n"
+              "file has one, else pose)")
+      .Option("--report", "DIR",
+              "human report (docs/reports.md): the decisions, the calibration in\n"
+              "use at the start and the end, every decision's held-out segments,\n"
+              "and the residual, route and parameter plots of the last fit")
+      .Footer("Prints one line per decision. Exit status: 0 done (whatever was decided); 2 unusable\n"
+              "input (robot file, config, log).\n");
+}
 }  // namespace
 
 int Recal(int argc, char** argv) {
-  const auto args = agvcal_process::ParseArgs(argc, argv, 2, {"--config", "--out-robot", "--decisions", "--source", "--report"},
-                                              {});
-  if (const auto status = agvcal_process::CheckUsage(args, kUsage, 2)) return *status;
+  agvcal_process::CommandLine args("agvcal recal");
+  Declare(&args);
+  if (const auto status = args.Parse(argc, argv, 2)) return *status;
   if (!args.Has("--config")) throw calib::InputError("command line", "--config", "missing (the recalibration config)");
   const calib::RobotDescription robot = calib::LoadRobotFile(args.positional[0]);
   const calib::RecalConfig config = calib::LoadRecalConfig(args.Get("--config", ""));

@@ -11,22 +11,26 @@
 namespace agvcal_cli {
 
 namespace {
-const char* kUsage = R"(usage: agvcal simulate SIM.yaml OUT.log [--trajectory NAME] [--seed N] [--quiet]
-
-Runs the trajectory commander against the simulated robot of SIM.yaml faster
+// The command line: arguments, options and the help made from them.
+void Declare(agvcal_process::CommandLine* args) {
+  args->Description(R"(Runs the trajectory commander against the simulated robot of SIM.yaml faster
 than real time and writes every message (DRIVE_CMD, WHEELS, SCAN, IMU, CLOUD,
 POSE, GROUND_TRUTH) to OUT.log, an lcm-logger recording. The same config and
-seed give the same bytes.
-  --trajectory NAME  excitation trajectory (default "default"; names per drive type:
-                     config/sims/README.md)
-  --seed N           overrides the config's seed
-  --quiet            no progress on stderr
-)";
+seed give the same bytes.)")
+      .Positional("SIM.yaml", "the simulation config (config/sims/README.md)")
+      .Positional("OUT.log", "the recording to write")
+      .Option("--trajectory", "NAME",
+              "excitation trajectory (default \"default\"); per drive type:\n" +
+                  agvcal_process::TrajectoryNamesText())
+      .Option("--seed", "N", "overrides the config's seed")
+      .Flag("--quiet", "no progress on stderr");
+}
 }  // namespace
 
 int Simulate(int argc, char** argv) {
-  const auto args = agvcal_process::ParseArgs(argc, argv, 2, {"--trajectory", "--seed"}, {"--quiet"});
-  if (const auto status = agvcal_process::CheckUsage(args, kUsage, 2)) return *status;
+  agvcal_process::CommandLine args("agvcal simulate");
+  Declare(&args);
+  if (const auto status = args.Parse(argc, argv, 2)) return *status;
   calib::SimConfig config = calib::LoadSimConfig(args.positional[0]);
   if (args.Has("--seed")) {
     const double seed = args.GetDouble("--seed", 0);

@@ -18,44 +18,50 @@
 namespace agvcal_cli {
 
 namespace {
-const char* kUsage = R"(usage: agvcal solve ROBOT.yaml LOG [--out RESULT.json] [--write-robot CALIBRATED.yaml]
-                    [--source lidar2d|pose|imu] [--time-offset] [--fit-fraction F]
-                    [--heldout-windows N] [--report DIR] [--quiet]
-                    [--distance METRES] [--distance-std METRES] [--turn-angle DEG]
-
-Calibrates the drive parameters of ROBOT.yaml and the mount of its 2D lidar
+// The command line: arguments, options and the help made from them.
+void Declare(agvcal_process::CommandLine* args) {
+  args->Description(R"(Calibrates the drive parameters of ROBOT.yaml and the mount of its 2D lidar
 (scans scan-matched) or of its external pose source (POSE) from a recording
 with WHEELS, jointly, by maximum likelihood, with one-sigma uncertainties.
 A differential drive with an IMU and no lidar (source imu, docs/imu.md) is
 calibrated with the gyro as the rotation reference and a measured distance as
 the scale, with the gyro's bias, scale (given a measured turn), mount yaw and
-time offset. Prints a summary; RESULT.json follows spec/cli.md.
-  --out RESULT.json          write the result (atomically)
-  --write-robot FILE         write ROBOT.yaml back with the calibrated values, std: and source:
-  --report DIR               human report (docs/reports.md): index.html, summary.txt and SVG
-                             plots of the residual over time and its histogram with the robot
-                             file's values and calibrated, the held-out windows, the route, the
-                             parameters with sigmas and units, the observability
-  --source lidar2d|pose|imu  which sensor measures the motion (default: the lidar if scanned,
-                             else external poses, else the IMU)
-  --distance METRES          imu: measured length of the first straight run (default imu.distance)
-  --distance-std METRES      imu: its one sigma (default 0.001)
-  --turn-angle DEG           imu: measured angle of the first turn in place; calibrates the
-                             gyro scale (without it the scale stays at imu.gyro_scale)
-  --time-offset              also estimate the lidar-to-wheel time offset (within +-0.5 s,
-                             searched again over twice the range, up to +-2 s, when it
-                             lies at the bound: a global search, then the joint fit; the same estimate
-                             agvcal diagnose starts from); the scans are then matched
-                             again, de-skewed with the calibrated model and offset
-  --fit-fraction F           fit on the first fraction F of the recording, and compare the
-                             calibrated with the nominal model's odometry on the rest:
-                             windows of equal path, the longest that give N windows
-                             (--heldout-windows, default 20), paired by a sign test;
-                             also fits the rest alone and says whether the halves agree
-  --quiet                    no progress on stderr
-Exit status: 0 done; 2 unusable input; 3 the recording cannot determine a
-parameter (stderr names it and the motion to add); 1 internal error.
-)";
+time offset. Prints a summary; RESULT.json follows spec/cli.md.)")
+      .Positional("ROBOT.yaml", "the robot file (spec/robot.md)")
+      .Positional("LOG", "the recording (lcm-logger)")
+      .Option("--out", "RESULT.json", "write the result (atomically)")
+      .Option("--write-robot", "FILE", "write ROBOT.yaml back with the calibrated values, std: and source:")
+      .Option("--report", "DIR",
+              "human report (docs/reports.md): index.html, summary.txt and SVG\n"
+              "plots of the residual over time and its histogram with the robot\n"
+              "file's values and calibrated, the held-out windows, the route, the\n"
+              "parameters with sigmas and units, the observability")
+      .Option("--source", "lidar2d|pose|imu",
+              "which sensor measures the motion (default: the lidar if scanned,\n"
+              "else external poses, else the IMU)")
+      .Option("--distance", "METRES", "imu: measured length of the first straight run\n"
+              "(default imu.distance)")
+      .Option("--distance-std", "METRES", "imu: its one sigma (default 0.001)")
+      .Option("--turn-angle", "DEG",
+              "imu: measured angle of the first turn in place; calibrates the\n"
+              "gyro scale (without it the scale stays at imu.gyro_scale)")
+      .Flag("--time-offset",
+            "also estimate the lidar-to-wheel time offset (within +-0.5 s,\n"
+            "searched again over twice the range, up to +-2 s, when it\n"
+            "lies at the bound: a global search, then the joint fit; the\n"
+            "same estimate agvcal diagnose starts from); the scans are then\n"
+            "matched again, de-skewed with the calibrated model and offset")
+      .Option("--fit-fraction", "F",
+              "fit on the first fraction F of the recording, and compare the\n"
+              "calibrated with the nominal model's odometry on the rest:\n"
+              "windows of equal path, the longest that give N windows\n"
+              "(--heldout-windows, default 20), paired by a sign test;\n"
+              "also fits the rest alone and says whether the halves agree")
+      .Option("--heldout-windows", "N", "the number of held-out windows of --fit-fraction (default 20)")
+      .Flag("--quiet", "no progress on stderr")
+      .Footer("Exit status: 0 done; 2 unusable input; 3 the recording cannot determine a\n"
+              "parameter (stderr names it and the motion to add); 1 internal error.\n");
+}
 
 // value ± sigma in the parameter's unit (angles: rad with degrees beside), rounded to the sigma.
 void PrintEstimate(const std::string& name, const calib::Estimate& e) {
@@ -71,12 +77,9 @@ void PrintEstimate(const std::string& name, const calib::Estimate& e) {
 }  // namespace
 
 int Solve(int argc, char** argv) {
-  const auto args = agvcal_process::ParseArgs(
-      argc, argv, 2,
-      {"--out", "--write-robot", "--report", "--source", "--fit-fraction", "--heldout-windows", "--distance", "--distance-std",
-       "--turn-angle"},
-      {"--time-offset", "--quiet"});
-  if (const auto status = agvcal_process::CheckUsage(args, kUsage, 2)) return *status;
+  agvcal_process::CommandLine args("agvcal solve");
+  Declare(&args);
+  if (const auto status = args.Parse(argc, argv, 2)) return *status;
   const calib::RobotDescription robot = calib::LoadRobotFile(args.positional[0]);
   const std::string log_path = args.positional[1];
 

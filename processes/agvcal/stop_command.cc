@@ -12,21 +12,22 @@
 namespace agvcal_cli {
 
 namespace {
-const char* kUsage = R"(usage: agvcal stop [--release] [--reason TEXT] [--lcm-url URL]
-
-Publishes the operator's stop on STOP: the trajectory commander stops the robot
+// The command line: arguments, options and the help made from them.
+void Declare(agvcal_process::CommandLine* args) {
+  args->Description(R"(Publishes the operator's stop on STOP: the trajectory commander stops the robot
 and holds it (sending stop commands) until `agvcal stop --release`, then resumes
-its trajectory from rest. The message is sent three times, 50 ms apart (UDP).
-  --release      release a stop
-  --reason TEXT  logged with the stop
-  --lcm-url URL  LCM provider (default: $LCM_DEFAULT_URL or LCM's default)
-)";
+its trajectory from rest. The message is sent three times, 50 ms apart (UDP).)")
+      .Flag("--release", "release a stop")
+      .Option("--reason", "TEXT", "logged with the stop")
+      .Option("--lcm-url", "URL", agvcal_process::kLcmUrlHelp);
+}
 }  // namespace
 
 int Stop(int argc, char** argv) {
   using namespace agvcal_process;
-  const Args args = ParseArgs(argc, argv, 2, {"--reason", "--lcm-url"}, {"--release"});
-  if (const auto status = CheckUsage(args, kUsage, 0)) return *status;
+  CommandLine args("agvcal stop");
+  Declare(&args);
+  if (const auto status = args.Parse(argc, argv, 2)) return *status;
   const std::string url = args.Get("--lcm-url", "");
   lcm::LCM lcm(url);
   RequireGoodBus(lcm, url);

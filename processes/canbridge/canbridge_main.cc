@@ -23,22 +23,24 @@
 
 namespace {
 
-const char* kUsage = R"(usage: agvcal-canbridge CONFIG.yaml --can IFACE [--robot ROBOT.yaml] [--lcm-url URL]
-       agvcal-canbridge CONFIG.yaml --candump FILE [--speed X] [--robot ROBOT.yaml] [--lcm-url URL]
-
-Encoder bridge for CANopen drives and steering encoders: decodes the
+// The command line: arguments, options and the help made from them.
+void Declare(agvcal_process::CommandLine* args) {
+  args->Description(R"(Encoder bridge for CANopen drives and steering encoders: decodes the
 synchronous TPDOs of the nodes in CONFIG.yaml (config/bridges/*_can.yaml,
 format in libcalib/include/calib/devices/canopen.h) and publishes wheel_state_t on
 WHEELS (or the config's channel), stamped with the SYNC producer's clock.
-  --can IFACE     read a SocketCAN interface live (e.g. can0), until Ctrl-C
-  --candump FILE  replay a 'candump -l' log with its recorded stamps, then exit
-  --robot FILE    check that CONFIG.yaml reports every wheel of this robot file
-  --speed X       replay speed: log seconds per wall-clock second (default 1;
-                  0 = as fast as possible)
-  --lcm-url URL   LCM provider (default: $LCM_DEFAULT_URL or LCM's default)
-Exit status: 0 stopped cleanly or end of the log, 2 bad config, log, frame
-layout or interface, 1 internal error.
-)";
+Give exactly one of --can and --candump.)")
+      .Positional("CONFIG.yaml", "the bridge config")
+      .Option("--can", "IFACE", "read a SocketCAN interface live (e.g. can0), until Ctrl-C")
+      .Option("--candump", "FILE", "replay a 'candump -l' log with its recorded stamps, then exit")
+      .Option("--robot", "FILE", "check that CONFIG.yaml reports every wheel of this robot file")
+      .Option("--speed", "X",
+              "replay speed: log seconds per wall-clock second (default 1;\n"
+              "0 = as fast as possible)")
+      .Option("--lcm-url", "URL", agvcal_process::kLcmUrlHelp)
+      .Footer("Exit status: 0 stopped cleanly or end of the log, 2 bad config, log, frame\n"
+              "layout or interface, 1 internal error.\n");
+}
 
 using agvcal_process::g_stop_requested;
 
@@ -158,8 +160,9 @@ void Live(Bridge* bridge, const std::string& iface) {
 
 int Run(int argc, char** argv) {
   using namespace agvcal_process;
-  const Args args = ParseArgs(argc, argv, 1, {"--can", "--candump", "--speed", "--robot", "--lcm-url"}, {});
-  if (const auto status = CheckUsage(args, kUsage, 1)) return *status;
+  CommandLine args("agvcal-canbridge");
+  Declare(&args);
+  if (const auto status = args.Parse(argc, argv, 1)) return *status;
   if (args.Has("--can") == args.Has("--candump"))
     throw calib::InputError("command line", "", "give exactly one of --can IFACE and --candump FILE");
   if (args.Has("--speed") && !args.Has("--candump"))

@@ -30,30 +30,29 @@
 
 namespace {
 
-const char* kUsage =
-    R"(usage: agvcal-commander ROBOT.yaml [--trajectory NAME] [--stale-timeout S] [--rate HZ]
-                        [--heartbeat-timeout S] [--ignore-scans] [--lcm-url URL]
-
-Drives the robot of ROBOT.yaml through an excitation trajectory within the
+// The command line: arguments, options and the help made from them.
+void Declare(agvcal_process::CommandLine* args) {
+  args->Description(R"(Drives the robot of ROBOT.yaml through an excitation trajectory within the
 limits of the robot file: publishes DRIVE_CMD, using the time of the newest
 WHEELS message as its clock, and COMMANDER_STATUS and HEARTBEAT. The robot is
 held still (stop commands; the trajectory resumes from rest afterwards) while
 WHEELS or the lidar's scans (lidar2d channel of ROBOT.yaml) are stale, while its
 own HEARTBEAT does not come back from the bus, and from an operator stop on
-STOP (`agvcal stop`) until its release (`agvcal stop --release`).
-  --trajectory NAME   excitation trajectory (default "default"); per drive type:
-                        differential: default umbmark turns figure8 demo straight
-                        tricycle:     default demo straight
-                        dual_steer:   default three_segment demo straight
-  --stale-timeout S   wall-clock seconds without WHEELS (or scans) after which the
-                      robot is told to stop (default 0.5); it resumes when they return
-  --heartbeat-timeout S  the same for its own HEARTBEAT, back from the bus (default 3)
-  --ignore-scans      do not watch the lidar's scans (a robot driven without its lidar)
-  --rate HZ           commands per second of robot time (default 20)
-  --lcm-url URL       LCM provider (default: $LCM_DEFAULT_URL or LCM's default)
-Exit status: 0 trajectory finished or stopped by SIGINT/SIGTERM (a stop command
-is sent first), 2 bad robot file, trajectory or bus, 1 internal error.
-)";
+STOP (`agvcal stop`) until its release (`agvcal stop --release`).)")
+      .Positional("ROBOT.yaml", "the robot file (spec/robot.md)")
+      .Option("--trajectory", "NAME",
+              "excitation trajectory (default \"default\"); per drive type:\n" +
+                  agvcal_process::TrajectoryNamesText())
+      .Option("--stale-timeout", "S",
+              "wall-clock seconds without WHEELS (or scans) after which the\n"
+              "robot is told to stop (default 0.5); it resumes when they return")
+      .Option("--heartbeat-timeout", "S", "the same for its own HEARTBEAT, back from the bus (default 3)")
+      .Flag("--ignore-scans", "do not watch the lidar's scans (a robot driven without its lidar)")
+      .Option("--rate", "HZ", "commands per second of robot time (default 20)")
+      .Option("--lcm-url", "URL", agvcal_process::kLcmUrlHelp)
+      .Footer("Exit status: 0 trajectory finished or stopped by SIGINT/SIGTERM (a stop command\n"
+              "is sent first), 2 bad robot file, trajectory or bus, 1 internal error.\n");
+}
 
 constexpr int kFinalStops = 5;  // stop commands sent after the trajectory ends
 
@@ -128,11 +127,9 @@ const char* StateName(calib::CommanderState s) {
 
 int Run(int argc, char** argv) {
   using namespace agvcal_process;
-  const Args args = ParseArgs(argc, argv, 1,
-                              {"--trajectory", "--stale-timeout", "--heartbeat-timeout", "--rate",
-                               "--lcm-url"},
-                              {"--ignore-scans"});
-  if (const auto status = agvcal_process::CheckUsage(args, kUsage, 1)) return *status;
+  CommandLine args("agvcal-commander");
+  Declare(&args);
+  if (const auto status = args.Parse(argc, argv, 1)) return *status;
   const double stale_timeout_s = args.GetDouble("--stale-timeout", 0.5);
   const double heartbeat_timeout_s = args.GetDouble("--heartbeat-timeout", 3.0);
   const double rate_hz = args.GetDouble("--rate", 20.0);

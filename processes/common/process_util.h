@@ -1,15 +1,14 @@
 #pragma once
 // What every agvcal process needs around libcalib: publishing encoded
-// messages on the bus, heartbeats, a stop flag set by SIGINT/SIGTERM, and a
-// small command-line reader. Nothing here computes. Listening to the bus:
-// bus_source.h.
+// messages on the bus, heartbeats, a stop flag set by SIGINT/SIGTERM. Nothing
+// here computes. Listening to the bus: bus_source.h; the command line:
+// command_line.h.
 
 #include <lcm/lcm-cpp.hpp>
 
 #include <atomic>
 #include <cstdint>
 #include <functional>
-#include <map>
 #include <optional>
 #include <string>
 #include <utility>
@@ -18,6 +17,7 @@
 #include "calib/calibrate/calibration.h"
 #include "calib/core/robot.h"
 #include "calib/io/recording.h"
+#include "common/command_line.h"
 
 namespace agvcal_process {
 
@@ -60,33 +60,16 @@ class Heartbeat {
   int64_t last_ = 0;
 };
 
-// Command line: positional arguments and --key value / --flag options.
-// Unknown options are errors (exit 2) naming the option.
-struct Args {
-  std::vector<std::string> positional;
-  std::map<std::string, std::string> options;  // "--speed" -> "2"; flags -> "1"
-  bool Has(const std::string& key) const { return options.count(key) > 0; }
-  std::string Get(const std::string& key, const std::string& fallback) const;
-  double GetDouble(const std::string& key, double fallback) const;
-};
-
-// `with_value` lists options that take a value, `flags` those that do not.
-// --help is always a flag. Throws calib::InputError for an unknown option or a
-// missing value.
-Args ParseArgs(int argc, char** argv, int first, const std::vector<std::string>& with_value,
-               const std::vector<std::string>& flags);
-
-// Handles --help (usage on stdout, exit 0) and a wrong number of positional
-// arguments (usage on stderr, exit 2): the exit status to return at once, or
-// nothing to go on.
-std::optional<int> CheckUsage(const Args& args, const char* usage, size_t positional_count);
-
 // The --source option: the sensor whose motion calibrates, one of `allowed` (named as
 // calib::MotionSourceName: lidar2d, pose, imu), or `fallback` when it is not given.
 // InputError naming the choices for any other name.
-std::optional<calib::MotionSource> MotionSourceOption(const Args& args,
+std::optional<calib::MotionSource> MotionSourceOption(const CommandLine& args,
                                                       const std::vector<calib::MotionSource>& allowed,
                                                       std::optional<calib::MotionSource> fallback);
+
+// The excitation trajectories the commander knows, one line per drive type
+// ("differential: default umbmark ..."): for --help.
+std::string TrajectoryNamesText();
 
 // The live calibrations' default sensor: the robot file's 2D lidar if it has one, else
 // its external pose source.

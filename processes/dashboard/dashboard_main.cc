@@ -26,20 +26,20 @@
 
 namespace {
 
-const char* kUsage = R"(usage: agvcal-dashboard [--lcm-url URL] [--stale-after S] [--ascii]
-
-Terminal dashboard of a live process group or an lcm-logplayer replay: the
+// The command line: arguments, options and the help made from them.
+void Declare(agvcal_process::CommandLine* args) {
+  args->Description(R"(Terminal dashboard of a live process group or an lcm-logplayer replay: the
 solver's residuals per component (time plot and histogram), each parameter's
 estimate with its sigma and convergence, the observability state, message rates
 (on the bus, and of the data from its own timestamps) and staleness per channel,
-process health from HEARTBEAT, the commander's state.
-  --stale-after S   a channel or process silent for longer than S s is stale (default 3)
-  --ascii           plain ASCII plots (default when the locale is not UTF-8)
-  --lcm-url URL     LCM provider (default: $LCM_DEFAULT_URL or LCM's default)
-Keys: 1 overview, 2 residuals, 3 parameters, 4 bus (channels, processes,
-commander), p pause/resume, ? help, q quit. Needs a terminal of 80x24 or more.
-Exit status: 0 quit (q, Ctrl-C, SIGTERM), 2 bad option or bus, 1 internal.
-)";
+process health from HEARTBEAT, the commander's state.)")
+      .Option("--stale-after", "S", "a channel or process silent for longer than S s is stale (default 3)")
+      .Flag("--ascii", "plain ASCII plots (default when the locale is not UTF-8)")
+      .Option("--lcm-url", "URL", agvcal_process::kLcmUrlHelp)
+      .Footer("Keys: 1 overview, 2 residuals, 3 parameters, 4 bus (channels, processes,\n"
+              "commander), p pause/resume, ? help, q quit. Needs a terminal of 80x24 or more.\n"
+              "Exit status: 0 quit (q, Ctrl-C, SIGTERM), 2 bad option or bus, 1 internal.\n");
+}
 
 // Feeds every message on the bus into the model. LCM calls this from C: nothing may throw.
 class Listener {
@@ -125,8 +125,9 @@ class CursesSession {
 
 int Run(int argc, char** argv) {
   using namespace agvcal_process;
-  const Args args = ParseArgs(argc, argv, 1, {"--lcm-url", "--stale-after"}, {"--ascii"});
-  if (const auto status = CheckUsage(args, kUsage, 0)) return *status;
+  CommandLine args("agvcal-dashboard");
+  Declare(&args);
+  if (const auto status = args.Parse(argc, argv, 1)) return *status;
   calib::DashboardOptions options;
   options.stale_after_s = args.GetDouble("--stale-after", options.stale_after_s);
   if (!(options.stale_after_s > 0))

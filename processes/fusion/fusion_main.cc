@@ -15,24 +15,27 @@
 
 namespace {
 
-const char* kUsage = R"(usage: agvcal-fusion ROBOT.yaml [--policy filter|average] [--lcm-url URL]
-
-Fuses the WHEELS odometry with the gyro of the robot file's imu channel (a
+// The command line: arguments, options and the help made from them.
+void Declare(agvcal_process::CommandLine* args) {
+  args->Description(R"(Fuses the WHEELS odometry with the gyro of the robot file's imu channel (a
 robot file calibrated by `agvcal solve --source imu`: params and the imu block
 give the model and the noise) and publishes the pose of the reference point on
 ODOM_FUSED (pose2d_t; odometry frame, origin at the first wheel state), plus
-HEARTBEAT. SIGINT/SIGTERM: processes what it received and exits.
-  --policy filter|average  short motions: Kalman filter (default) or the mean of
-                           wheel and gyro below one wheel circumference (docs/imu.md)
-  --lcm-url URL            LCM provider (default: $LCM_DEFAULT_URL or LCM's default)
-Exit status: 0 stopped cleanly, 2 bad robot file (no imu, not differential) or bus,
-1 internal error.
-)";
+HEARTBEAT. SIGINT/SIGTERM: processes what it received and exits.)")
+      .Positional("ROBOT.yaml", "the robot file (spec/robot.md), with imu")
+      .Option("--policy", "filter|average",
+              "short motions: Kalman filter (default) or the mean of\n"
+              "wheel and gyro below one wheel circumference (docs/imu.md)")
+      .Option("--lcm-url", "URL", agvcal_process::kLcmUrlHelp)
+      .Footer("Exit status: 0 stopped cleanly, 2 bad robot file (no imu, not differential) or bus,\n"
+              "1 internal error.\n");
+}
 
 int Run(int argc, char** argv) {
   using namespace agvcal_process;
-  const Args args = ParseArgs(argc, argv, 1, {"--lcm-url", "--policy"}, {});
-  if (const auto status = CheckUsage(args, kUsage, 1)) return *status;
+  CommandLine args("agvcal-fusion");
+  Declare(&args);
+  if (const auto status = args.Parse(argc, argv, 1)) return *status;
   const calib::RobotDescription robot = calib::LoadRobotFile(args.positional[0]);
   calib::FusedOdometryOptions options;
   const std::string policy = args.Get("--policy", "filter");

@@ -16,26 +16,26 @@
 
 namespace {
 
-const char* kUsage =
-    R"(usage: agvcal-ground ROBOT.yaml [--config GROUND.yaml] [--out RESULT.json] [--grid]
-                     [--window N] [--lcm-url URL]
-
-Calibrates the 3D lidar of ROBOT.yaml (lidar3d) from the floor while the robot
+// The command line: arguments, options and the help made from them.
+void Declare(agvcal_process::CommandLine* args) {
+  args->Description(R"(Calibrates the 3D lidar of ROBOT.yaml (lidar3d) from the floor while the robot
 runs: subscribes lidar3d.channel (CLOUD) and, for a lidar that turns on its
 mount, lidar3d.rotation.channel (mount_angle_t); publishes GROUND_ESTIMATE
 (ground_estimate_t: the estimate so far, or why there is none yet) after every
 cloud and HEARTBEAT every second. On SIGINT/SIGTERM, or at the end of the log
 of a file:// provider, it writes RESULT.json (--out) as `agvcal ground` would
-from the same messages, and exits.
-  --config FILE   options (config/ground.yaml)
-  --out FILE      result at the end (nothing is written when the floor did not
-                  determine the answer: exit 3)
-  --grid          keep points for the grid search and add it to RESULT.json
-  --window N      use only the newest N clouds (default: all since the start)
-  --lcm-url URL   LCM provider (default: $LCM_DEFAULT_URL or LCM's default)
-Exit status: 0 stopped (and the result written), 2 bad robot file, options or
-bus, 3 the floor did not determine the answer (with --out), 1 internal error.
-)";
+from the same messages, and exits.)")
+      .Positional("ROBOT.yaml", "the robot file (spec/robot.md), with lidar3d")
+      .Option("--config", "FILE", "options (config/ground.yaml)")
+      .Option("--out", "FILE",
+              "result at the end (nothing is written when the floor did not\n"
+              "determine the answer: exit 3)")
+      .Flag("--grid", "keep points for the grid search and add it to RESULT.json")
+      .Option("--window", "N", "use only the newest N clouds (default: all since the start)")
+      .Option("--lcm-url", "URL", agvcal_process::kLcmUrlHelp)
+      .Footer("Exit status: 0 stopped (and the result written), 2 bad robot file, options or\n"
+              "bus, 3 the floor did not determine the answer (with --out), 1 internal error.\n");
+}
 
 // The message of a session's state (GROUND_ESTIMATE).
 agvcal::ground_estimate_t ToMessage(const calib::GroundEstimate& e) {
@@ -56,8 +56,9 @@ agvcal::ground_estimate_t ToMessage(const calib::GroundEstimate& e) {
 
 int Run(int argc, char** argv) {
   using namespace agvcal_process;
-  const Args args = ParseArgs(argc, argv, 1, {"--config", "--out", "--window", "--lcm-url"}, {"--grid"});
-  if (const auto status = CheckUsage(args, kUsage, 1)) return *status;
+  CommandLine args("agvcal-ground");
+  Declare(&args);
+  if (const auto status = args.Parse(argc, argv, 1)) return *status;
   const calib::RobotDescription robot = calib::LoadRobotFile(args.positional[0]);
   calib::GroundOptions options =
       args.Has("--config") ? calib::LoadGroundOptions(args.Get("--config", "")) : calib::GroundOptions{};

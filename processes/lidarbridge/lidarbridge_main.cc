@@ -19,26 +19,28 @@
 
 namespace {
 
-const char* kUsage = R"(usage: agvcal-lidarbridge CONFIG.yaml --host HOST [--port P] [--lcm-url URL]
-
-Lidar bridge for SICK LMS1xx/LMS5xx/TiM scanners (CoLa-A over TCP): connects,
+// The command line: arguments, options and the help made from them.
+void Declare(agvcal_process::CommandLine* args) {
+  args->Description(R"(Lidar bridge for SICK LMS1xx/LMS5xx/TiM scanners (CoLa-A over TCP): connects,
 sends 'sEN LMDscandata 1' and publishes every scan as laser_scan_t on SCAN (or
 the config's channel). Stamps come from the device's clock, mapped to the
 host's by a minimum-delay fit (no network jitter baked in). Reconnects when
-the connection drops; stops on Ctrl-C. CONFIG.yaml: config/bridges/sick_lms1xx.yaml.
-  --host HOST     the scanner's address
-  --port P        TCP port (default 2111)
-  --lcm-url URL   LCM provider (default: $LCM_DEFAULT_URL or LCM's default)
-Exit status: 0 stopped, 2 bad config or options, 1 internal error.
-)";
+the connection drops; stops on Ctrl-C.)")
+      .Positional("CONFIG.yaml", "the bridge config (config/bridges/sick_lms1xx.yaml)")
+      .Option("--host", "HOST", "the scanner's address (required)")
+      .Option("--port", "P", "TCP port (default 2111)")
+      .Option("--lcm-url", "URL", agvcal_process::kLcmUrlHelp)
+      .Footer("Exit status: 0 stopped, 2 bad config or options, 1 internal error.\n");
+}
 
 using agvcal_process::g_stop_requested;
 using agvcal_process::WallMicros;
 
 int Run(int argc, char** argv) {
   using namespace agvcal_process;
-  const Args args = ParseArgs(argc, argv, 1, {"--host", "--port", "--lcm-url"}, {});
-  if (const auto status = CheckUsage(args, kUsage, 1)) return *status;
+  CommandLine args("agvcal-lidarbridge");
+  Declare(&args);
+  if (const auto status = args.Parse(argc, argv, 1)) return *status;
   if (!args.Has("--host")) throw calib::InputError("command line", "--host", "missing (the scanner's address)");
   const std::string host = args.Get("--host", "");
   const std::string port = args.Get("--port", "2111");

@@ -18,32 +18,36 @@
 
 namespace {
 
-const char* kUsage = R"(usage: agvcal-recal ROBOT.yaml --config RECAL.yaml [--out-robot CAL.yaml]
-                    [--decisions DECISIONS.jsonl] [--source lidar2d|pose] [--lcm-url URL]
-
-Recalibrates the robot of ROBOT.yaml while it works (no commander): records the
+// The command line: arguments, options and the help made from them.
+void Declare(agvcal_process::CommandLine* args) {
+  args->Description(R"(Recalibrates the robot of ROBOT.yaml while it works (no commander): records the
 segments of its route that the config names (zones in the POSE frame, or odometry
 distance windows) from WHEELS with SCAN_MATCH (from agvcal-scanmatch) or POSE;
 every `decision.segments` segments it calibrates on some and compares with the
 calibration in use on the others, and accepts the new calibration only when it is
 significantly better there and consistent with the one in use
-(docs/recalibration.md). Publishes HEARTBEAT.
-  --config RECAL.yaml      zones or distance windows, decision levels, prior uncertainties
-  --out-robot CAL.yaml     the accepted calibration, as a robot file (written atomically);
-                           when it exists at the start, the calibration in use starts from it
-  --decisions FILE         every decision appended as a JSON line (atomically)
-  --source lidar2d|pose    the sensor whose motion calibrates (default lidar2d if the robot
-                           file has one, else pose)
-  --lcm-url URL            LCM provider (default: $LCM_DEFAULT_URL or LCM's default)
-SIGINT/SIGTERM: a decision under way is finished and written, then it exits. A
-message that does not decode or convert is skipped, counted and reported once.
-Exit status: 0 stopped; 2 bad robot file, config or bus; 1 internal error.
-)";
+(docs/recalibration.md). Publishes HEARTBEAT.)")
+      .Positional("ROBOT.yaml", "the robot file (spec/robot.md)")
+      .Option("--config", "RECAL.yaml", "zones or distance windows, decision levels, prior\n"
+              "uncertainties (required)")
+      .Option("--out-robot", "CAL.yaml",
+              "the accepted calibration, as a robot file (written atomically);\n"
+              "when it exists at the start, the calibration in use starts from it")
+      .Option("--decisions", "FILE", "every decision appended as a JSON line (atomically)")
+      .Option("--source", "lidar2d|pose",
+              "the sensor whose motion calibrates (default lidar2d if the robot\n"
+              "file has one, else pose)")
+      .Option("--lcm-url", "URL", agvcal_process::kLcmUrlHelp)
+      .Footer("SIGINT/SIGTERM: a decision under way is finished and written, then it exits. A\n"
+              "message that does not decode or convert is skipped, counted and reported once.\n"
+              "Exit status: 0 stopped; 2 bad robot file, config or bus; 1 internal error.\n");
+}
 
 int Run(int argc, char** argv) {
   using namespace agvcal_process;
-  const Args args = ParseArgs(argc, argv, 1, {"--config", "--out-robot", "--decisions", "--source", "--lcm-url"}, {});
-  if (const auto status = CheckUsage(args, kUsage, 1)) return *status;
+  CommandLine args("agvcal-recal");
+  Declare(&args);
+  if (const auto status = args.Parse(argc, argv, 1)) return *status;
   if (!args.Has("--config")) throw calib::InputError("command line", "--config", "missing (the recalibration config)");
   const calib::RobotDescription robot = calib::LoadRobotFile(args.positional[0]);
   const calib::RecalConfig config = calib::LoadRecalConfig(args.Get("--config", ""));

@@ -16,28 +16,31 @@
 
 namespace {
 
-const char* kUsage = R"(usage: agvcal-scanmatch ROBOT.yaml [--catch-up RECORDING] [--lcm-url URL]
-
-Matches consecutive 2D lidar scans (the lidar2d channel of ROBOT.yaml, SCAN by
+// The command line: arguments, options and the help made from them.
+void Declare(agvcal_process::CommandLine* args) {
+  args->Description(R"(Matches consecutive 2D lidar scans (the lidar2d channel of ROBOT.yaml, SCAN by
 default), de-skewed with the WHEELS odometry of the robot file's nominal
 model, and publishes the lidar's motion between them with its covariance on
 SCAN_MATCH (agvcal::scan_match_t), plus HEARTBEAT. A match is published once
 the wheel data cover both scans. SIGINT/SIGTERM: matches what it can of the
-data received, publishes it, and exits.
-  --catch-up RECORDING  on start, first read the WHEELS and scans published so far
-                 from the group's recording (lcm-logger's file, still being written),
-                 then continue live; each message is used once (by stamp), so a
-                 restarted matcher matches the same scan pairs as an uninterrupted
-                 one (the matches it publishes again are dropped by the solver)
-  --lcm-url URL  LCM provider (default: $LCM_DEFAULT_URL or LCM's default)
-Exit status: 0 stopped cleanly, 2 bad robot file (or no lidar2d) or bus,
-1 internal error.
-)";
+data received, publishes it, and exits.)")
+      .Positional("ROBOT.yaml", "the robot file (spec/robot.md), with lidar2d")
+      .Option("--catch-up", "RECORDING",
+              "on start, first read the WHEELS and scans published so far\n"
+              "from the group's recording (lcm-logger's file, still being written),\n"
+              "then continue live; each message is used once (by stamp), so a\n"
+              "restarted matcher matches the same scan pairs as an uninterrupted\n"
+              "one (the matches it publishes again are dropped by the solver)")
+      .Option("--lcm-url", "URL", agvcal_process::kLcmUrlHelp)
+      .Footer("Exit status: 0 stopped cleanly, 2 bad robot file (or no lidar2d) or bus,\n"
+              "1 internal error.\n");
+}
 
 int Run(int argc, char** argv) {
   using namespace agvcal_process;
-  const Args args = ParseArgs(argc, argv, 1, {"--catch-up", "--lcm-url"}, {});
-  if (const auto status = CheckUsage(args, kUsage, 1)) return *status;
+  CommandLine args("agvcal-scanmatch");
+  Declare(&args);
+  if (const auto status = args.Parse(argc, argv, 1)) return *status;
   const calib::RobotDescription robot = calib::LoadRobotFile(args.positional[0]);
   calib::ScanMatchPipeline pipeline(robot);  // throws InputError without a lidar2d
 

@@ -22,19 +22,23 @@
 
 namespace {
 
-const char* kUsage = R"(usage: agvcal-sickemu LOG [--port P] [--bind ADDR] [--channel SCAN]
-                      [--jitter-ms J] [--drift-ppm D] [--boot-us B] [--seed N]
-
-Emulates a SICK scanner speaking CoLa-A on TCP: accepts one client, answers
+// The command line: arguments, options and the help made from them.
+void Declare(agvcal_process::CommandLine* args) {
+  args->Description(R"(Emulates a SICK scanner speaking CoLa-A on TCP: accepts one client, answers
 'sEN LMDscandata 1' with 'sEA LMDscandata 1', then streams the scans of LOG's
 channel as 'sSN LMDscandata' telegrams in real time (ranges in whole mm), and
-closes the connection and exits at the end of the recording.
-The emulated device's clock starts at B us (default 4294000000, near the
-32-bit wrap) and runs D ppm fast; each telegram leaves up to J ms late
-(uniform, seeded), as network and scheduling delays would make it.
-  --port P        TCP port (default 2111)      --bind ADDR  (default 127.0.0.1)
-Exit status: 0 served the recording, 2 bad log or options, 1 internal error.
-)";
+closes the connection and exits at the end of the recording.)")
+      .Positional("LOG", "the recording whose scans it serves")
+      .Option("--port", "P", "TCP port (default 2111)")
+      .Option("--bind", "ADDR", "IPv4 address to listen on (default 127.0.0.1)")
+      .Option("--channel", "SCAN", "the recording's scan channel (default SCAN)")
+      .Option("--jitter-ms", "J", "each telegram leaves up to J ms late (uniform, seeded; default 0)")
+      .Option("--drift-ppm", "D", "the emulated device's clock runs D ppm fast (default 0)")
+      .Option("--boot-us", "B", "the device's clock at the first scan, us\n"
+              "(default 4294000000, near the 32-bit wrap)")
+      .Option("--seed", "N", "seed of the jitter (default 1)")
+      .Footer("Exit status: 0 served the recording, 2 bad log or options, 1 internal error.\n");
+}
 
 using agvcal_process::g_stop_requested;
 using agvcal_process::WallMicros;
@@ -59,9 +63,9 @@ void SleepUntil(int64_t wall_us) {
 
 int Run(int argc, char** argv) {
   using namespace agvcal_process;
-  const Args args = ParseArgs(argc, argv, 1,
-                              {"--port", "--bind", "--channel", "--jitter-ms", "--drift-ppm", "--boot-us", "--seed"}, {});
-  if (const auto status = CheckUsage(args, kUsage, 1)) return *status;
+  CommandLine args("agvcal-sickemu");
+  Declare(&args);
+  if (const auto status = args.Parse(argc, argv, 1)) return *status;
   const double jitter_us = args.GetDouble("--jitter-ms", 0.0) * 1000.0;
   const double drift = args.GetDouble("--drift-ppm", 0.0) * 1e-6;
   const int64_t boot = int64_t(args.GetDouble("--boot-us", 4294000000.0));

@@ -11,25 +11,25 @@
 
 namespace {
 
-const char* kUsage = R"(usage: agvcal-sim SIM.yaml [--speed X] [--duration S] [--lcm-url URL]
-       agvcal-sim SIM.yaml --print-robot
-
-Runs the simulated robot of SIM.yaml (see config/sims/) live on the LCM bus:
+// The command line: arguments, options and the help made from them.
+void Declare(agvcal_process::CommandLine* args) {
+  args->Description(R"(Runs the simulated robot of SIM.yaml (see config/sims/) live on the LCM bus:
 publishes WHEELS, SCAN, IMU, CLOUD, POSE and GROUND_TRUTH as configured and
 follows DRIVE_CMD (the robot stops when a command's timeout expires; a command
-that does not decode or names no setpoint for a wheel is ignored, and reported once).
-  --speed X      simulated seconds per wall-clock second (default 1)
-  --duration S   stop after S simulated seconds (default: until Ctrl-C)
-  --lcm-url URL  LCM provider (default: $LCM_DEFAULT_URL or LCM's default)
-  --print-robot  print the path of the robot file SIM.yaml simulates, and exit
-Exit status: 0 stopped cleanly, 2 bad config or bus, 1 internal error.
-)";
+that does not decode or names no setpoint for a wheel is ignored, and reported once).)")
+      .Positional("SIM.yaml", "the simulation config (config/sims/README.md)")
+      .Option("--speed", "X", "simulated seconds per wall-clock second (default 1)")
+      .Option("--duration", "S", "stop after S simulated seconds (default: until Ctrl-C)")
+      .Option("--lcm-url", "URL", agvcal_process::kLcmUrlHelp)
+      .Flag("--print-robot", "print the path of the robot file SIM.yaml simulates, and exit")
+      .Footer("Exit status: 0 stopped cleanly, 2 bad config or bus, 1 internal error.\n");
+}
 
 int Run(int argc, char** argv) {
   using namespace agvcal_process;
-  const Args args = ParseArgs(argc, argv, 1, {"--speed", "--duration", "--lcm-url"},
-                              {"--print-robot"});
-  if (const auto status = agvcal_process::CheckUsage(args, kUsage, 1)) return *status;
+  CommandLine args("agvcal-sim");
+  Declare(&args);
+  if (const auto status = args.Parse(argc, argv, 1)) return *status;
   const double speed = args.GetDouble("--speed", 1.0);
   const double duration = args.GetDouble("--duration", 0.0);
   if (!(speed > 0)) throw calib::InputError("command line", "--speed", "must be > 0");

@@ -31,28 +31,30 @@
 
 namespace {
 
-const char* kUsage = R"(usage: agvcal-solver ROBOT.yaml [--source lidar2d|pose] [--every N] [--time-offset]
-                     [--out RESULT.json] [--catch-up RECORDING] [--lcm-url URL]
-
-Calibrates the robot of ROBOT.yaml live: WHEELS with SCAN_MATCH (the 2D lidar's
+// The command line: arguments, options and the help made from them.
+void Declare(agvcal_process::CommandLine* args) {
+  args->Description(R"(Calibrates the robot of ROBOT.yaml live: WHEELS with SCAN_MATCH (the 2D lidar's
 motion from agvcal-scanmatch) or with POSE (an external pose source). Publishes
 CALIB_ESTIMATE (estimates, sigmas, observability) after every N new motions and
-CALIB_RESIDUALS (per-interval residuals), and HEARTBEAT.
-  --source lidar2d|pose   the sensor (default lidar2d if the robot file has one, else pose)
-  --every N               re-solve after N new motions (default 200)
-  --time-offset           also estimate the lidar-to-wheel time offset; with SCAN_MATCH and
-                          --catch-up, the final solve then matches the recording's scans a
-                          second time, de-skewed with the calibrated model, as `agvcal solve
-                          --time-offset` does (without --catch-up: once, and said on stderr)
-  --out RESULT.json       on exit, solve on all data and write the result (spec/cli.md)
-  --catch-up RECORDING    on start, first read the inputs published so far from the
-                          group's recording (lcm-logger's file, still being written),
-                          then continue live; each message is used once (by stamp)
-  --lcm-url URL           LCM provider (default: $LCM_DEFAULT_URL or LCM's default)
-A message that does not decode or convert is skipped, counted and reported once.
-Exit status: 0 stopped by SIGINT/SIGTERM (after the final solve), 2 bad robot
-file or bus, 3 the final solve cannot determine a parameter, 1 internal.
-)";
+CALIB_RESIDUALS (per-interval residuals), and HEARTBEAT.)")
+      .Positional("ROBOT.yaml", "the robot file (spec/robot.md)")
+      .Option("--source", "lidar2d|pose", "the sensor (default lidar2d if the robot file has one, else pose)")
+      .Option("--every", "N", "re-solve after N new motions (default 200)")
+      .Flag("--time-offset",
+            "also estimate the lidar-to-wheel time offset; with SCAN_MATCH and\n"
+            "--catch-up, the final solve then matches the recording's scans a\n"
+            "second time, de-skewed with the calibrated model, as `agvcal solve\n"
+            "--time-offset` does (without --catch-up: once, and said on stderr)")
+      .Option("--out", "RESULT.json", "on exit, solve on all data and write the result (spec/cli.md)")
+      .Option("--catch-up", "RECORDING",
+              "on start, first read the inputs published so far from the\n"
+              "group's recording (lcm-logger's file, still being written),\n"
+              "then continue live; each message is used once (by stamp)")
+      .Option("--lcm-url", "URL", agvcal_process::kLcmUrlHelp)
+      .Footer("A message that does not decode or convert is skipped, counted and reported once.\n"
+              "Exit status: 0 stopped by SIGINT/SIGTERM (after the final solve), 2 bad robot\n"
+              "file or bus, 3 the final solve cannot determine a parameter, 1 internal.\n");
+}
 
 // Intermediate solves run on a worker thread while the main thread keeps receiving: a solve
 // on a long run's data takes seconds (2.5 s at one hour of 100 Hz wheel data), and a process
@@ -239,9 +241,9 @@ int Run(int argc, char** argv) {
   mallopt(M_MMAP_THRESHOLD, 256 * 1024);
   mallopt(M_TRIM_THRESHOLD, 1024 * 1024);
   mallopt(M_ARENA_MAX, 1);
-  const Args args = ParseArgs(argc, argv, 1, {"--source", "--every", "--out", "--catch-up", "--lcm-url"},
-                              {"--time-offset"});
-  if (const auto status = CheckUsage(args, kUsage, 1)) return *status;
+  CommandLine args("agvcal-solver");
+  Declare(&args);
+  if (const auto status = args.Parse(argc, argv, 1)) return *status;
   const calib::RobotDescription robot = calib::LoadRobotFile(args.positional[0]);
   const calib::MotionSource source =
       MotionSourceOption(args, {calib::MotionSource::kLidar2d, calib::MotionSource::kPose}, LiveMotionSource(robot))
