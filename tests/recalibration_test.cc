@@ -7,12 +7,14 @@
 
 #include <gtest/gtest.h>
 
+#include <sys/resource.h>
 #include <sys/stat.h>
 #include <unistd.h>
 
 #include <algorithm>
 #include <atomic>
 #include <cmath>
+#include <csignal>
 #include <cstdio>
 #include <fstream>
 #include <sstream>
@@ -544,11 +546,18 @@ TEST(AtomicFilesTest, ReadersSeeWholeFilesOnly) {
 TEST(AtomicFilesTest, AFailedWriteLeavesThePreviousFile) {
   const std::string path = TempPath("kept.yaml");
   WriteFileAtomically(path, "previous\n");
-  ASSERT_EQ(::mkdir((path + ".partial").c_str(), 0700), 0);  // the write cannot start
-  EXPECT_THROW(WriteFileAtomically(path, "new\n"), InputError);
-  EXPECT_THROW(AppendFileAtomically(path, "more\n"), InputError);
+  // As on a full disk: writes beyond 4 kB fail (EFBIG).
+  rlimit saved{};
+  ::getrlimit(RLIMIT_FSIZE, &saved);
+  rlimit limit = saved;
+  limit.rlim_cur = 4096;
+  const auto previous_handler = std::signal(SIGXFSZ, SIG_IGN);
+  ::setrlimit(RLIMIT_FSIZE, &limit);
+  EXPECT_THROW(WriteFileAtomically(path, std::string(10000, 'n')), InputError);
+  EXPECT_THROW(AppendFileAtomically(path, std::string(10000, 'm')), InputError);
+  ::setrlimit(RLIMIT_FSIZE, &saved);
+  std::signal(SIGXFSZ, previous_handler);
   EXPECT_EQ(ReadText(path), "previous\n");
-  ::rmdir((path + ".partial").c_str());
   std::remove(path.c_str());
 }
 

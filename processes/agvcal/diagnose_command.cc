@@ -85,9 +85,8 @@ int Diagnose(int argc, char** argv) {
   if (!(options.drift_window_s > 0 && options.drift_window_s <= options.block_s))
     throw calib::InputError("command line", "--drift-window", "expected a length in (0, --block-s]");
   // Where the results go is checked before the analysis (exit 2 at once, naming the path).
-  for (const char* option : {"--out", "--write-sim"})
-    if (args.Has(option)) calib::CheckWritableFile(args.Get(option, ""), option);
-  if (args.Has("--report")) calib::PrepareReportDir(args.Get("--report", ""));
+  calib::CheckOutputs({args.positional[0], log_path, args.Get("--sim", "")}, {{"--out", args.Get("--out", "")},
+      {"--write-sim", args.Get("--write-sim", "")}, {"--report", args.Get("--report", ""), true}});
   if (!args.Has("--quiet")) options.progress = [](const std::string& line) { std::cerr << line << "\n"; };
 
   const calib::DiagnoseReport report = calib::DiagnoseLog(robot, log_path, options);
@@ -103,11 +102,13 @@ int Diagnose(int argc, char** argv) {
     j["sim_comparison"] = nlohmann::json::parse(comparison);
     json = j.dump(1) + "\n";
   }
-  if (args.Has("--out")) calib::WriteFileAtomically(args.Get("--out", ""), json);
-  if (args.Has("--report")) calib::WriteDiagnoseReportDir(report, args.Get("--report", ""));
+  calib::Outputs outputs;  // put in place together, only when all were written
+  if (args.Has("--out")) outputs.WriteFile(args.Get("--out", ""), json);
+  if (args.Has("--report")) calib::WriteDiagnoseReportDir(report, outputs.ReportDir(args.Get("--report", "")));
   if (args.Has("--write-sim"))
-    calib::WriteFileAtomically(args.Get("--write-sim", ""),
-                               calib::SimConfigYaml(report, std::filesystem::absolute(args.positional[0]).string()));
+    outputs.WriteFile(args.Get("--write-sim", ""),
+                      calib::SimConfigYaml(report, std::filesystem::absolute(args.positional[0]).string()));
+  outputs.Commit();
   return calib::kExitOk;
 }
 

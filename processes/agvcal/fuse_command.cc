@@ -35,6 +35,7 @@ int Fuse(int argc, char** argv) {
   const std::string policy = args.Get("--policy", "filter");
   if (policy == "average") options.policy = calib::FusionPolicy::kAverageShort;
   else if (policy != "filter") throw calib::InputError("command line", "--policy", "expected filter or average");
+  calib::CheckOutputs({args.positional[0], args.positional[1]}, {{"--out", args.Get("--out", "")}});
   const std::vector<calib::FusedPose> poses = calib::FuseLog(robot, args.positional[1], options);
   if (poses.empty()) throw calib::InputError(args.positional[1], "channel WHEELS", "no wheel states");
   const calib::FusedPose& last = poses.back();

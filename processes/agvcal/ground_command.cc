@@ -48,17 +48,18 @@ int Ground(int argc, char** argv) {
   const calib::RobotDescription robot = calib::LoadRobotFile(args.positional[0]);
   const calib::GroundOptions options =
       args.Has("--config") ? calib::LoadGroundOptions(args.Get("--config", "")) : calib::GroundOptions{};
-  for (const char* option : {"--out", "--write-robot"})  // checked before the work (exit 2 at once)
-    if (args.Has(option)) calib::CheckWritableFile(args.Get(option, ""), option);
-  if (args.Has("--report")) calib::PrepareReportDir(args.Get("--report", ""));  // a bad folder fails first
+  calib::CheckOutputs({args.positional[0], args.positional[1], args.Get("--config", "")},  // exit 2 before the work
+      {{"--out", args.Get("--out", "")}, {"--write-robot", args.Get("--write-robot", "")}, {"--report", args.Get("--report", ""), true}});
   calib::GroundInput input;
   const calib::GroundResult result = calib::CalibrateGroundFile(
       robot, options, args.positional[1], !args.Has("--no-grid"), &input);
-  if (args.Has("--out")) calib::WriteFileAtomically(args.Get("--out", ""), calib::GroundResultJson(result, input));
+  calib::Outputs outputs;  // put in place together, only when all were written
+  if (args.Has("--out")) outputs.WriteFile(args.Get("--out", ""), calib::GroundResultJson(result, input));
   if (args.Has("--write-robot"))
-    calib::WriteFileAtomically(args.Get("--write-robot", ""),
-                               calib::GroundCalibratedRobotYaml(robot, result, args.positional[1]));
-  if (args.Has("--report")) calib::WriteGroundReportDir(robot, result, input, args.Get("--report", ""));
+    outputs.WriteFile(args.Get("--write-robot", ""),
+                      calib::GroundCalibratedRobotYaml(robot, result, args.positional[1]));
+  if (args.Has("--report")) calib::WriteGroundReportDir(robot, result, input, outputs.ReportDir(args.Get("--report", "")));
+  outputs.Commit();
   if (!args.Has("--quiet")) std::cout << calib::GroundResultText(result, input);
   return calib::kExitOk;
 }

@@ -2,6 +2,7 @@
 #include <optional>
 
 #include "calib/core/errors.h"
+#include "calib/io/atomic_file.h"
 #include "calib/core/robot.h"
 #include "calib/import/importers.h"
 #include "commands.h"
@@ -48,6 +49,7 @@ int Import(int argc, char** argv) {
   std::optional<calib::RobotDescription> robot;
   if (args.Has("--robot")) robot = calib::LoadRobotFile(args.Get("--robot", ""));
   // On any error the writer's destructor removes the partial output.
+  calib::CheckOutputs({args.positional[1], args.Get("--robot", "")}, {{"OUT.log", args.positional[2]}});
   calib::LogWriter writer(args.positional[2]);
   const calib::ImportSummary summary =
       calib::Import(format, args.positional[1], robot ? &*robot : nullptr, &writer);

@@ -53,7 +53,8 @@ int Recal(int argc, char** argv) {
           .value();
   const std::string robot_out = args.Get("--out-robot", ""), decisions = args.Get("--decisions", "");
   const calib::CalibrationInUse start = calib::StartingCalibration(robot, robot_out, source, config);
-  if (args.Has("--report")) calib::PrepareReportDir(args.Get("--report", ""));  // a bad folder fails first
+  calib::CheckOutputs({args.positional[0], args.positional[1], args.Get("--config", "")}, {{"--out-robot", robot_out},
+      {"--decisions", decisions}, {"--report", args.Get("--report", ""), true}});  // exit 2 before the work
   std::printf("calibration in use: %s\n", start.origin.c_str());
   const calib::RecalRun run = calib::RecalibrateLog(
       robot, start, args.positional[1], source, config, [&](const calib::RecalDecision& d) {
@@ -63,10 +64,13 @@ int Recal(int argc, char** argv) {
       });
   std::printf("%d segments (%d dropped as too short, %d waiting for a decision), %zu decisions\n",
               run.segments, run.dropped, run.waiting, run.decisions.size());
-  if (args.Has("--report"))
+  if (args.Has("--report")) {
+    calib::Outputs outputs;
     calib::WriteRecalReportDir(start, run, args.positional[1],
                                calib::RecordingStartUtime(calib::SummarizeLog(args.positional[1])),
-                               args.Get("--report", ""));
+                               outputs.ReportDir(args.Get("--report", "")));
+    outputs.Commit();
+  }
   return calib::kExitOk;
 }
 

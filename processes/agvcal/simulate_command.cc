@@ -4,6 +4,7 @@
 #include <iostream>
 
 #include "calib/core/errors.h"
+#include "calib/io/atomic_file.h"
 #include "calib/live/sim_run.h"
 #include "commands.h"
 #include "common/process_util.h"
@@ -50,6 +51,7 @@ int Simulate(int argc, char** argv) {
       if (terminal && s % 10 == 0) std::cerr << "\rsimulated " << s << " s" << std::flush;
       if (!terminal && s > 0 && s % 60 == 0) std::cerr << "simulated " << s << " s\n";
     };
+  calib::CheckOutputs({args.positional[0], config.robot.source_file, config.world}, {{"OUT.log", args.positional[1]}});
   calib::LogWriter writer(args.positional[1]);
   const calib::OfflineRunSummary summary = calib::RunOffline(config, options, &writer);
   writer.Close();

@@ -107,11 +107,10 @@ int Solve(int argc, char** argv) {
   if (args.Has("--distance")) options.imu.distance_m = positive("--distance");
   if (args.Has("--distance-std")) options.imu.distance_std_m = positive("--distance-std");
   if (args.Has("--turn-angle")) options.imu.turn_angle_rad = positive("--turn-angle") * M_PI / 180.0;
-  for (const char* option : {"--out", "--write-robot"})  // checked before the work (exit 2 at once)
-    if (args.Has(option)) calib::CheckWritableFile(args.Get(option, ""), option);
+  calib::CheckOutputs({args.positional[0], log_path}, {{"--out", args.Get("--out", "")},  // before the work: exit 2 at once
+      {"--write-robot", args.Get("--write-robot", "")}, {"--report", args.Get("--report", ""), true}});
   if (!args.Has("--quiet")) options.progress = [](const std::string& line) { std::cerr << line << "\n"; };
 
-  if (args.Has("--report")) calib::PrepareReportDir(args.Get("--report", ""));  // a bad folder fails first
   const calib::CalibrationResult result = calib::SolveLog(robot, log_path, options);
   // Said even with --quiet: the result stands on less than the recording holds.
   for (const std::string& note : result.input_notes) std::cerr << "agvcal: left out: " << note << "\n";
@@ -177,14 +176,16 @@ int Solve(int argc, char** argv) {
                     "  or physics the model leaves out acts differently on the halves' motions (agvcal diagnose)\n");
     }
   }
-  if (args.Has("--out")) calib::WriteFileAtomically(args.Get("--out", ""), calib::CalibrationResultJson(result));
+  calib::Outputs outputs;  // put in place together, only when all were written
+  if (args.Has("--out")) outputs.WriteFile(args.Get("--out", ""), calib::CalibrationResultJson(result));
   if (args.Has("--report"))
     calib::WriteSolveReportDir(robot, result, log_path, calib::RecordingStartUtime(calib::SummarizeLog(log_path)),
-                               args.Get("--report", ""));
+                               outputs.ReportDir(args.Get("--report", "")));
   if (args.Has("--write-robot")) {
-    calib::WriteFileAtomically(args.Get("--write-robot", ""),
-                               calib::CalibratedRobotYaml(robot, result, log_path));
+    outputs.WriteFile(args.Get("--write-robot", ""),
+                      calib::CalibratedRobotYaml(robot, result, log_path));
   }
+  outputs.Commit();
   return calib::kExitOk;
 }
 

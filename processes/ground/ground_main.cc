@@ -68,6 +68,7 @@ int Run(int argc, char** argv) {
       throw calib::InputError("command line", "--window", "expected a whole number >= 1");
     options.frames.max_frames = static_cast<int>(window);
   }
+  calib::CheckOutputs({args.positional[0], args.Get("--config", "")}, {{"--out", args.Get("--out", "")}});
   const bool grid = args.Has("--grid");
   if (!grid) options.grid.max_points = 0;  // keeps no points: memory stays flat on a long run
   calib::GroundSession session(robot, options);

@@ -11,6 +11,7 @@
 
 #include "calib/calibrate/recalibration.h"
 #include "calib/core/errors.h"
+#include "calib/io/atomic_file.h"
 #include "calib/io/message_source.h"
 #include "calib/io/messages.h"
 #include "common/bus_source.h"
@@ -55,6 +56,7 @@ int Run(int argc, char** argv) {
       MotionSourceOption(args, {calib::MotionSource::kLidar2d, calib::MotionSource::kPose}, LiveMotionSource(robot))
           .value();
   const std::string robot_out = args.Get("--out-robot", ""), decisions_path = args.Get("--decisions", "");
+  calib::CheckOutputs({args.positional[0], args.Get("--config", "")}, {{"--out-robot", robot_out}, {"--decisions", decisions_path}});
   calib::CalibrationInUse in_use = calib::StartingCalibration(robot, robot_out, source, config);
   std::cerr << "agvcal-recal: calibration in use: " << in_use.origin << "\n";
 

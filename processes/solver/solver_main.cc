@@ -23,6 +23,7 @@
 #include "calib/calibrate/recording_input.h"
 #include "calib/calibrate/result_files.h"
 #include "calib/core/errors.h"
+#include "calib/io/atomic_file.h"
 #include "calib/io/message_source.h"
 #include "calib/io/messages.h"
 #include "calib/live/estimate_messages.h"
@@ -252,6 +253,7 @@ int Run(int argc, char** argv) {
   if (!(every >= 1)) throw calib::InputError("command line", "--every", "must be >= 1");
   calib::CalibrationOptions options;
   options.estimate_time_offset = args.Has("--time-offset");
+  calib::CheckOutputs({args.positional[0], args.Get("--catch-up", "")}, {{"--out", args.Get("--out", "")}});
 
   BusSource bus(args.Get("--lcm-url", ""), "agvcal-solver");
   bus.DeliverOncePerStamp();  // a message is used once, whether live, recovered or both

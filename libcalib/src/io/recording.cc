@@ -6,6 +6,7 @@
 #include <sys/stat.h>
 
 #include "calib/core/errors.h"
+#include "calib/io/atomic_file.h"
 
 namespace calib {
 
@@ -87,16 +88,12 @@ bool LogReader::Read(LogEvent* event, bool incomplete_tail_is_end) {
   return true;
 }
 
-LogWriter::LogWriter(const std::string& path) : path_(path), partial_path_(path + ".partial") {
-  file_ = std::fopen(partial_path_.c_str(), "wb");
-  if (!file_)
-    throw InputError(path, "", std::string("cannot write: ") + std::strerror(errno));
-}
+LogWriter::LogWriter(const std::string& path) : path_(path), file_(OpenOutput(path, &partial_path_)) {}
 
 LogWriter::~LogWriter() {
   if (file_) {
     std::fclose(file_);
-    std::remove(partial_path_.c_str());
+    if (!partial_path_.empty()) std::remove(partial_path_.c_str());
   }
 }
 
@@ -118,11 +115,12 @@ void LogWriter::Publish(const std::string& channel, int64_t utime,
 
 void LogWriter::Close() {
   if (!file_) return;
-  const bool ok = std::fflush(file_) == 0 && std::fclose(file_) == 0;
+  std::FILE* file = file_;
   file_ = nullptr;
-  if (!ok || std::rename(partial_path_.c_str(), path_.c_str()) != 0) {
-    std::remove(partial_path_.c_str());
-    throw InputError(path_, "", "could not finish writing the log");
+  try {
+    CommitOutput(path_, file, &partial_path_);
+  } catch (const InputError& e) {
+    throw InputError(path_, "", "could not finish writing the log: " + e.problem());
   }
 }
 

@@ -58,12 +58,12 @@ class MessageSink {
                        const std::vector<uint8_t>& data) = 0;
 };
 
-// Writes a log to PATH.partial and renames it to PATH on Close(), so that a
-// reader never sees half a recording. Event numbers count from 0.
+// Writes a log to a temporary renamed to PATH on Close() (calib/io/atomic_file.h,
+// OpenOutput), so a reader never sees half a recording. Events count from 0.
 class LogWriter : public MessageSink {
  public:
   explicit LogWriter(const std::string& path);  // throws InputError if not writable
-  ~LogWriter() override;                         // without Close(): removes the partial file
+  ~LogWriter() override;                         // without Close(): removes the temporary
   LogWriter(const LogWriter&) = delete;
   LogWriter& operator=(const LogWriter&) = delete;
 
@@ -73,7 +73,7 @@ class LogWriter : public MessageSink {
   int64_t events() const { return count_; }
 
  private:
-  std::string path_, partial_path_;
+  std::string path_, partial_path_;  // partial_path_: the temporary (empty: in place)
   std::FILE* file_ = nullptr;
   int64_t count_ = 0;
 };
