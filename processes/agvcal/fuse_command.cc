@@ -6,7 +6,7 @@
 #include "calib/core/errors.h"
 #include "calib/io/atomic_file.h"
 #include "commands.h"
-#include "common/process_util.h"
+#include "common/command_line.h"
 
 namespace agvcal_cli {
 

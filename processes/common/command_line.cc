@@ -17,8 +17,8 @@ const char* Version() { return AGVCAL_VERSION; }
 
 namespace {
 
-// CLI11's layout with the usage line first (as `man` pages and the old hand-kept texts had
-// it), the description under it, and an option's value shown by the name it was declared with.
+// CLI11's layout with the usage line first (as man pages have it), the description under it,
+// and an option's value shown by the name it was declared with ("--out RESULT.json").
 class HelpFormatter : public CLI::Formatter {
  public:
   HelpFormatter() {
