@@ -84,7 +84,7 @@ stderr_has "none.yaml"
 } >"$TMP/walls.pcd"
 expect_status 3 "no floor in view" "$AGVCAL" ground $robot "$TMP/walls.pcd" --out "$TMP/walls.json"
 stderr_has "cannot determine"; stderr_has "not visible enough"
-[ -e "$TMP/walls.json" ] || [ -e "$TMP/walls.json.partial" ] && fail "a result file was left" || pass "no result file when refused"
+[ -e "$TMP/walls.json" ] || compgen -G "$TMP/walls.json*.partial" >/dev/null && fail "a result file was left" || pass "no result file when refused"
 # The robot drives onto a ramp halfway: the lidar's pitch against the floor changes by 1.4 deg.
 sim_config 0.06 "$TMP/ramp.yaml"
 "$AGVCAL" simulate "$TMP/ramp.yaml" "$TMP/ramp_half.log" --trajectory demo --quiet

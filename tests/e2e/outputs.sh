@@ -87,26 +87,26 @@ else
   echo "SKIP full-disk checks: not root or no mount namespaces"
 fi
 
-# --- A FIFO, a device, a symbolic link as outputs ---
+# --- A FIFO, a device, a symbolic link as outputs (the inputs from here on: the repository's) ---
 mkfifo "$TMP/out.fifo"
 timeout 120 cat "$TMP/out.fifo" >"$TMP/fifo.json" &
 reader=$!
-expect_status 0 "solve --out FIFO" timeout 120 "$AGVCAL" solve "$R" "$L" --quiet --out "$TMP/out.fifo"
+expect_status 0 "solve --out FIFO" timeout 120 "$AGVCAL" solve "$robot" "$log" --quiet --out "$TMP/out.fifo"
 if [ -p "$TMP/out.fifo" ]; then pass "the FIFO is still a FIFO"; else fail "the FIFO was replaced by a $(stat -c %F "$TMP/out.fifo")"; kill "$reader" 2>/dev/null; fi
 wait "$reader" 2>/dev/null
 python3 -c 'import json,sys; json.load(open(sys.argv[1]))["params"]' "$TMP/fifo.json" 2>/dev/null &&
   pass "the reader got RESULT.json through the FIFO" || fail "FIFO reader got: $(head -c 200 "$TMP/fifo.json")"
 if mknod "$TMP/null" c 1 3 2>/dev/null; then
-  expect_status 0 "solve --out a null device, --write-robot too" "$AGVCAL" solve "$R" "$L" --quiet --out "$TMP/null" --write-robot "$TMP/null"
+  expect_status 0 "solve --out a null device, --write-robot too" "$AGVCAL" solve "$robot" "$log" --quiet --out "$TMP/null" --write-robot "$TMP/null"
   [ -c "$TMP/null" ] && pass "the device is still a device" || fail "the device was replaced by a $(stat -c %F "$TMP/null")"
 fi
-"$AGVCAL" solve "$R" "$L" --out /dev/fd/1 >"$TMP/stdout.txt" 2>"$TMP/stderr"
+"$AGVCAL" solve "$robot" "$log" --out /dev/fd/1 >"$TMP/stdout.txt" 2>"$TMP/stderr"
 grep -q "^tricycle drive" "$TMP/stdout.txt" && grep -q '"params"' "$TMP/stdout.txt" &&
   pass "--out /dev/fd/1: the result follows the summary on stdout" || fail "--out /dev/fd/1: $(head -c 300 "$TMP/stderr")"
 mkdir "$TMP/real"
 echo previous >"$TMP/real/RESULT.json"
 ln -s real/RESULT.json "$TMP/link.json"
-expect_status 0 "solve --out a symbolic link" "$AGVCAL" solve "$R" "$L" --quiet --out "$TMP/link.json"
+expect_status 0 "solve --out a symbolic link" "$AGVCAL" solve "$robot" "$log" --quiet --out "$TMP/link.json"
 [ -L "$TMP/link.json" ] && pass "the link is still a link" || fail "the link was replaced by a $(stat -c %F "$TMP/link.json")"
 grep -q '"params"' "$TMP/real/RESULT.json" && pass "the link's target holds the result" || fail "target: $(head -c 100 "$TMP/real/RESULT.json")"
 
@@ -115,18 +115,18 @@ mkdir "$TMP/user"
 echo mine >"$TMP/user/RESULT.json.partial"
 echo mine >"$TMP/user/.agvcal-write-check"
 expect_status 0 "solve --out beside the user's .partial and .agvcal-write-check" \
-  "$AGVCAL" solve "$R" "$L" --quiet --out "$TMP/user/RESULT.json" --report "$TMP/user/report"
+  "$AGVCAL" solve "$robot" "$log" --quiet --out "$TMP/user/RESULT.json" --report "$TMP/user/report"
 [ "$(cat "$TMP/user/RESULT.json.partial" "$TMP/user/.agvcal-write-check" 2>/dev/null)" = "$(printf 'mine\nmine')" ] &&
   pass "the user's OUT.partial and .agvcal-write-check are kept" || fail "the user's files: $(ls -a "$TMP/user")"
 echo '<svg xmlns="http://www.w3.org/2000/svg"><circle r="1"/></svg>' >"$TMP/user/report/my_plot.svg"
 report_before=$(cd "$TMP/user/report" && sha256sum ./*)
 expect_status 2 "--report into an old report holding the user's plot" \
-  "$AGVCAL" solve "$R" "$L" --quiet --report "$TMP/user/report"
+  "$AGVCAL" solve "$robot" "$log" --quiet --report "$TMP/user/report"
 stderr_has "my_plot.svg"
 [ "$(cd "$TMP/user/report" && sha256sum ./*)" = "$report_before" ] && pass "the report folder is left as it was" ||
   fail "the report folder changed: $(ls "$TMP/user/report")"
 rm "$TMP/user/report/my_plot.svg"
-expect_status 0 "--report into agvcal's own report" "$AGVCAL" solve "$R" "$L" --quiet --fit-fraction 0.5 --report "$TMP/user/report"
+expect_status 0 "--report into agvcal's own report" "$AGVCAL" solve "$robot" "$log" --quiet --fit-fraction 0.5 --report "$TMP/user/report"
 [ -s "$TMP/user/report/heldout_windows.svg" ] && pass "the report was replaced" || fail "no new report: $(ls "$TMP/user/report")"
 if ls -a "$TMP/user" | grep -qE "$temporary"; then fail "temporaries left: $(ls -a "$TMP/user")"; else pass "no temporary left"; fi
 finish

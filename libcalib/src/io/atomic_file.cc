@@ -11,6 +11,7 @@
 #include <fstream>
 #include <map>
 #include <random>
+#include <regex>
 #include <sstream>
 #include <system_error>
 
@@ -39,6 +40,12 @@ fs::path FollowLinks(const std::string& path) {
     p = to.is_absolute() ? to : p.parent_path() / to;
   }
   return p;
+}
+
+// `path` as the user will find it: a file in a report's staging folder by its place in the report.
+std::string Shown(const std::string& path) {
+  static const std::regex kStaging(R"(\.agvcal-[a-z0-9]{6}\.partial(/|$))");
+  return std::regex_replace(path, kStaging, "$1");
 }
 
 // A folder named without a last component ("out/", ".") as one with it, for renaming.
@@ -204,14 +211,14 @@ std::FILE* OpenOutput(const std::string& path, std::string* temporary) {
     fd = CreateUniqueFile(target, temporary);
     if (fd < 0) temporary->clear();
   }
-  if (fd < 0) throw InputError(path, "", "cannot write: " + ErrnoText());
+  if (fd < 0) throw InputError(Shown(path), "", "cannot write: " + ErrnoText());
   std::FILE* file = ::fdopen(fd, "wb");
   if (!file) {
     const std::string why = ErrnoText();
     ::close(fd);
     if (!temporary->empty()) ::unlink(temporary->c_str());
     temporary->clear();
-    throw InputError(path, "", "cannot write: " + why);
+    throw InputError(Shown(path), "", "cannot write: " + why);
   }
   return file;
 }
@@ -224,12 +231,12 @@ void CloseOutput(const std::string& path, std::FILE* file, bool sync) {
   const bool flushed = std::fflush(file) == 0 && (!sync || ::fsync(::fileno(file)) == 0);
   const std::string why = ErrnoText();
   const bool closed = std::fclose(file) == 0;
-  if (!flushed || !closed) throw InputError(path, "", "cannot write: " + (flushed ? ErrnoText() : why));
+  if (!flushed || !closed) throw InputError(Shown(path), "", "cannot write: " + (flushed ? ErrnoText() : why));
 }
 
 void PlaceOutput(const std::string& path, const std::string& temporary) {
   if (std::rename(temporary.c_str(), FollowLinks(path).c_str()) != 0)
-    throw InputError(path, "", "cannot write: " + ErrnoText());
+    throw InputError(Shown(path), "", "cannot write: " + ErrnoText());
 }
 
 }  // namespace
@@ -255,7 +262,7 @@ OutputFile::~OutputFile() {
 
 void OutputFile::Write(const void* data, std::size_t size) {
   if (!file_ || std::fwrite(data, 1, size, file_) != size)
-    throw InputError(path_, "", "cannot write: " + ErrnoText());
+    throw InputError(Shown(path_), "", "cannot write: " + ErrnoText());
 }
 
 void OutputFile::Finish() {
