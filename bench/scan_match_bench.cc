@@ -5,7 +5,7 @@
 //
 // Defaults: logs/forklift_demo.log with config/robots/forklift.yaml. Decodes
 // the log once, then runs the whole front end (de-skewing, line fitting and
-// the symmetric PL-ICP match of every pair: ScanMatchPipeline) over it again
+// the symmetric PL-ICP match of every pair: ScanMatcher) over it again
 // and again for at least S seconds of thread CPU time (default 3), and the one-way match alone
 // on the prepared scans. Prints pairs per second.
 #include <time.h>
@@ -82,15 +82,13 @@ int Run(int argc, char** argv) {
   int64_t pairs = 0, runs = 0;
   const double start = Now();
   do {
-    calib::ScanMatchPipeline pipeline(robot, options);
-    for (const Event& ev : order) {
-      if (ev.is_scan)
-        pipeline.AddScan(scans[ev.index]);
-      else
-        pipeline.AddWheels(wheels[ev.index]);
-    }
-    pipeline.Finish();
-    pairs += static_cast<int64_t>(pipeline.TakeResults().size());
+    calib::ScanMatcher matcher(robot, options);
+    auto count_matches = [&](const std::vector<calib::ScanMatchOutcome>& outcomes) {
+      for (const calib::ScanMatchOutcome& outcome : outcomes) pairs += outcome.matched();
+    };
+    for (const Event& ev : order)
+      count_matches(ev.is_scan ? matcher.AddScan(scans[ev.index]) : matcher.AddWheels(wheels[ev.index]));
+    count_matches(matcher.Finish());
     ++runs;
   } while (Seconds(start) < min_seconds);
   const double pipeline_rate = pairs / Seconds(start);

@@ -17,7 +17,7 @@
 //
 // Timing: clock_gettime(CLOCK_THREAD_CPUTIME_ID) over N passes (default 5) of all pairs, the median
 // pass reported. agvcal's pass includes the line fit of every scan (PreparedScan, once per scan, as
-// ScanMatchPipeline does); CSM's includes its own preprocessing (sm_icp redoes it every call).
+// ScanMatcher does); CSM's includes its own preprocessing (sm_icp redoes it every call).
 // Converting the scans to each matcher's input (points; CSM's polar laser_data) is not timed.
 //
 // CSM is compiled in only when the build is configured with -DAGVCAL_CSM_SOURCE=<csm checkout>
@@ -167,14 +167,19 @@ std::vector<Pair> MakePairs(const Case& c, const Data& data, const std::vector<T
   calib::ScanMatchOptions options;
   if (c.consecutive) options.keyframe_translation_m = options.keyframe_rotation_rad = -1.0;
   // The pipeline decides which scans pair (keyframes, coverage by wheel data).
-  calib::ScanMatchPipeline pipeline(data.robot, options);
+  calib::ScanMatcher matcher(data.robot, options);
+  std::vector<calib::SensorMotion> matches;
+  auto keep_matches = [&](const std::vector<calib::ScanMatchOutcome>& outcomes) {
+    for (const calib::ScanMatchOutcome& outcome : outcomes)
+      if (outcome.matched()) matches.push_back(outcome.motion);
+  };
   std::size_t w = 0;
   for (const calib::LaserScan& scan : data.scans) {
-    while (w < data.wheels.size() && data.wheels[w].utime <= scan.utime) pipeline.AddWheels(data.wheels[w++]);
-    pipeline.AddScan(scan);
+    while (w < data.wheels.size() && data.wheels[w].utime <= scan.utime) keep_matches(matcher.AddWheels(data.wheels[w++]));
+    keep_matches(matcher.AddScan(scan));
   }
-  for (; w < data.wheels.size(); ++w) pipeline.AddWheels(data.wheels[w]);
-  pipeline.Finish();
+  for (; w < data.wheels.size(); ++w) keep_matches(matcher.AddWheels(data.wheels[w]));
+  keep_matches(matcher.Finish());
   std::map<int64_t, int> index;
   for (std::size_t k = 0; k < scans.size(); ++k) index[scans[k].utime] = static_cast<int>(k);
   calib::WheelTrack track;
@@ -183,7 +188,7 @@ std::vector<Pair> MakePairs(const Case& c, const Data& data, const std::vector<T
   const calib::Pose2 mount{data.robot.lidar2d->x, data.robot.lidar2d->y, data.robot.lidar2d->yaw};
   const double t_end = data.truth.back().utime;
   std::vector<Pair> pairs;
-  for (const calib::SensorMotion& m : pipeline.TakeResults()) {
+  for (const calib::SensorMotion& m : matches) {
     const int a = index.at(m.utime_start), b = index.at(m.utime_end);
     if (data.scans[b].end_utime() > t_end) continue;
     pairs.push_back({a, b,

@@ -111,22 +111,26 @@ Recording Simulate(const SimConfig& sim, const std::string& trajectory, double m
   return DecodeEvents(sink.events, sim);
 }
 
-// Runs the pipeline over the events in the given order.
+// Runs a ScanMatcher over the events in the given order: every outcome, in the order they come.
+std::vector<ScanMatchOutcome> Outcomes(const Recording& rec, const std::vector<Recording::Event>& order,
+                                       const ScanMatchOptions& options = PerPair(),
+                                       ScanMatchCounts* counts = nullptr) {
+  ScanMatcher matcher(rec.robot, options);
+  std::vector<ScanMatchOutcome> out;
+  auto keep = [&](const std::vector<ScanMatchOutcome>& outcomes) { out.insert(out.end(), outcomes.begin(), outcomes.end()); };
+  for (const auto& ev : order) keep(ev.is_scan ? matcher.AddScan(rec.scans[ev.index]) : matcher.AddWheels(rec.wheels[ev.index]));
+  keep(matcher.Finish());
+  if (counts) *counts = matcher.counts();
+  return out;
+}
+
+// The matches alone.
 std::vector<SensorMotion> Match(const Recording& rec, const std::vector<Recording::Event>& order,
                                 const ScanMatchOptions& options = PerPair(),
                                 ScanMatchCounts* counts = nullptr) {
-  ScanMatchPipeline pipeline(rec.robot, options);
   std::vector<SensorMotion> out;
-  for (const auto& ev : order) {
-    if (ev.is_scan)
-      pipeline.AddScan(rec.scans[ev.index]);
-    else
-      pipeline.AddWheels(rec.wheels[ev.index]);
-    for (const SensorMotion& m : pipeline.TakeResults()) out.push_back(m);
-  }
-  pipeline.Finish();
-  for (const SensorMotion& m : pipeline.TakeResults()) out.push_back(m);
-  if (counts) *counts = pipeline.counts();
+  for (const ScanMatchOutcome& outcome : Outcomes(rec, order, options, counts))
+    if (outcome.matched()) out.push_back(outcome.motion);
   return out;
 }
 
@@ -564,7 +568,7 @@ TEST(ScanMatchTest, MovingObjectsAreRejected) {
   EXPECT_LT(cluttered.median_heading, 0.05 * kDeg);
 }
 
-// --- The pipeline
+// --- ScanMatcher
 
 // The same data in three interleavings: as logged, wheel data 0.5 s late
 // (as over a slow link), and all scans before any wheel data. Identical
@@ -663,21 +667,67 @@ TEST(ScanMatchTest, UncoveredScansAndWheelGaps) {
   EXPECT_GE(invalid, 8);  // 0.4 s of 20 Hz scans
 }
 
-// Two clock domains (issue 17 item 8): scans stamped an hour after the wheels are said in
+// Every scan fed gets exactly one outcome: the scans in their order (an out-of-order one's at
+// once), each match from the keyframe before it, and the outcomes add up to the counts.
+TEST(ScanMatchTest, EveryScanHasOneOutcome) {
+  const Recording rec = ReadSample("forklift_demo.log", "forklift.yaml");
+  const int64_t t_first = rec.scans[5].utime, t_last = rec.scans[rec.scans.size() - 6].utime;
+  std::vector<Recording::Event> order;
+  int fed = 0;
+  for (std::size_t k = 0; k < rec.order.size(); ++k) {
+    const auto& ev = rec.order[k];
+    if (!ev.is_scan && (rec.wheels[ev.index].utime < t_first || rec.wheels[ev.index].utime > t_last)) continue;
+    order.push_back(ev);
+    fed += ev.is_scan;
+    if (ev.is_scan && k % 17 == 0) {  // the same scan again
+      order.push_back(ev);
+      ++fed;
+    }
+  }
+  ScanMatchCounts counts;
+  const std::vector<ScanMatchOutcome> outcomes = Outcomes(rec, order, ScanMatchOptions(), &counts);
+  ASSERT_EQ(static_cast<int>(outcomes.size()), fed);
+  std::map<ScanMatchStatus, int64_t> by_status;
+  std::vector<int64_t> in_order;
+  int64_t keyframe = -1;
+  for (const ScanMatchOutcome& outcome : outcomes) {
+    ++by_status[outcome.status];
+    if (outcome.status == ScanMatchStatus::kOutOfOrder) continue;
+    in_order.push_back(outcome.scan_utime);
+    if (outcome.matched()) {
+      EXPECT_EQ(outcome.motion.utime_start, keyframe);
+      EXPECT_EQ(outcome.motion.utime_end, outcome.scan_utime);
+    }
+    if (outcome.matched() || outcome.status == ScanMatchStatus::kFirstKeyframe) keyframe = outcome.scan_utime;
+  }
+  std::vector<int64_t> scans;
+  for (const LaserScan& scan : rec.scans) scans.push_back(scan.utime);
+  EXPECT_EQ(in_order, scans);
+  EXPECT_EQ(by_status[ScanMatchStatus::kFirstKeyframe], 1);
+  EXPECT_EQ(by_status[ScanMatchStatus::kMatched], counts.matches);
+  EXPECT_EQ(by_status[ScanMatchStatus::kBetweenKeyframes], counts.between_keyframes);
+  EXPECT_EQ(by_status[ScanMatchStatus::kNoWheelData], counts.scans_uncovered);
+  EXPECT_EQ(by_status[ScanMatchStatus::kOutOfOrder], counts.scans_dropped);
+  EXPECT_EQ(counts.scans_uncovered, 5 + 6);
+  EXPECT_GT(counts.between_keyframes, 0);
+  EXPECT_GT(counts.scans_dropped, 0);
+}
+
+// Two clock domains: scans stamped an hour after the wheels are said in
 // one sentence when the streams first meet; the clean recording, and one whose wheels start
 // 20 s after its scans (two streams of one clock), say nothing.
 TEST(ScanMatchTest, TwoClocksAreSaidAtOnce) {
   const Recording rec = ReadSample("forklift_demo.log", "forklift.yaml");
   auto problem = [&](const Recording& r, const std::vector<Recording::Event>& order) {
-    ScanMatchPipeline pipeline(r.robot, PerPair());
+    ScanMatcher matcher(r.robot, PerPair());
     for (const auto& ev : order) {
       if (ev.is_scan)
-        pipeline.AddScan(r.scans[ev.index]);
+        matcher.AddScan(r.scans[ev.index]);
       else
-        pipeline.AddWheels(r.wheels[ev.index]);
-      if (!pipeline.clock_problem().empty()) return pipeline.clock_problem();
+        matcher.AddWheels(r.wheels[ev.index]);
+      if (!matcher.clock_problem().empty()) return matcher.clock_problem();
     }
-    return pipeline.clock_problem();
+    return matcher.clock_problem();
   };
   EXPECT_EQ(problem(rec, rec.order), "");
   std::vector<Recording::Event> late_wheels;
@@ -724,27 +774,30 @@ TEST(ScanMatchTest, SlowEncodersAreNotGaps) {
 
 TEST(ScanMatchTest, BadInput) {
   RobotDescription robot = LoadRobotFile(kSource + "/config/robots/forklift.yaml");
-  ScanMatchPipeline pipeline(robot, PerPair());
+  ScanMatcher matcher(robot, PerPair());
   WheelSample two_wheels{1, {0.0, 0.0}, {0.0, 0.0}};  // the forklift has one
-  EXPECT_THROW(pipeline.AddWheels(two_wheels), std::invalid_argument);
+  EXPECT_THROW(matcher.AddWheels(two_wheels), std::invalid_argument);
   // A scan with no beams: accepted, matched as a failure, never a crash.
   LaserScan empty;
   empty.utime = 10;
   empty.range_max = 30;
-  pipeline.AddScan(empty);
-  pipeline.AddWheels({0, {0.0}, {0.0}});
-  pipeline.AddWheels({100000, {0.0}, {0.0}});
+  EXPECT_TRUE(matcher.AddScan(empty).empty());  // waits for wheel data
+  ASSERT_EQ(matcher.AddWheels({0, {0.0}, {0.0}}).size(), 0u);
+  const std::vector<ScanMatchOutcome> first = matcher.AddWheels({100000, {0.0}, {0.0}});
+  ASSERT_EQ(first.size(), 1u);
+  EXPECT_EQ(first[0].status, ScanMatchStatus::kFirstKeyframe);
   LaserScan also_empty = empty;
   also_empty.utime = 20;
-  pipeline.AddScan(also_empty);
-  pipeline.Finish();
-  const std::vector<SensorMotion> results = pipeline.TakeResults();
-  ASSERT_EQ(results.size(), 1u);
-  EXPECT_FALSE(results[0].valid);
+  const std::vector<ScanMatchOutcome> second = matcher.AddScan(also_empty);
+  ASSERT_EQ(second.size(), 1u);
+  ASSERT_TRUE(second[0].matched());
+  EXPECT_EQ(second[0].scan_utime, 20);
+  EXPECT_FALSE(second[0].motion.valid);
+  EXPECT_TRUE(matcher.Finish().empty());
 
   robot.lidar2d.reset();
   try {
-    ScanMatchPipeline no_lidar(robot, PerPair());
+    ScanMatcher no_lidar(robot, PerPair());
     FAIL() << "a robot without a 2D lidar was accepted";
   } catch (const InputError& e) {
     EXPECT_NE(e.file().find("forklift.yaml"), std::string::npos);

@@ -1,9 +1,10 @@
 // agvcal-scanmatch: the scan matcher as a live process. Feeds WHEELS and the
-// robot file's 2D lidar channel into calib::ScanMatchPipeline (the same front
+// robot file's 2D lidar channel into calib::ScanMatcher (the same front
 // end `agvcal solve` runs offline) and publishes each completed match on
 // SCAN_MATCH. Time comes from the messages, never the wall clock.
 #include <iostream>
 #include <string>
+#include <vector>
 
 #include "agvcal/scan_match_t.hpp"
 #include "calib/core/errors.h"
@@ -42,36 +43,41 @@ int Run(int argc, char** argv) {
   Declare(&args);
   if (const auto status = args.Parse(argc, argv, 1)) return *status;
   const calib::RobotDescription robot = calib::LoadRobotFile(args.positional[0]);
-  calib::ScanMatchPipeline pipeline(robot);  // throws InputError without a lidar2d
+  calib::ScanMatcher matcher(robot);  // throws InputError without a lidar2d
 
+  // A scan's path: the bus -> SubscribeScans -> matcher.AddScan -> its outcome -> SCAN_MATCH.
+  // The wheel samples feed the matcher too, and may complete the scans that wait for them.
   BusSource bus(args.Get("--lcm-url", ""), "agvcal-scanmatch");
-  calib::SubscribeWheels(&bus, robot, [&](const calib::WheelSample& sample) { pipeline.AddWheels(sample); });
-  calib::SubscribeScans(&bus, robot.lidar2d->channel, [&](calib::LaserScan scan) { pipeline.AddScan(scan); });
+  auto publish = [&](const std::vector<calib::ScanMatchOutcome>& outcomes) {
+    for (const calib::ScanMatchOutcome& outcome : outcomes) {
+      if (!outcome.matched()) continue;
+      const agvcal::scan_match_t msg = calib::ToMessage(outcome.motion);
+      bus.lcm().publish(calib::kScanMatchChannel, &msg);
+    }
+  };
+  calib::SubscribeWheels(&bus, robot, [&](const calib::WheelSample& sample) { publish(matcher.AddWheels(sample)); });
+  calib::SubscribeScans(&bus, robot.lidar2d->channel, [&](calib::LaserScan scan) { publish(matcher.AddScan(scan)); });
   Heartbeat heartbeat(&bus.lcm(), "scanmatch");
   bus.ReportOn(&heartbeat);
   InstallStopHandlers();
   std::cerr << "agvcal-scanmatch: " << robot.name << ", matching " << robot.lidar2d->channel
             << " with WHEELS, publishing " << calib::kScanMatchChannel << "\n";
 
-  auto publish = [&]() {
-    for (const calib::SensorMotion& motion : pipeline.TakeResults()) {
-      const agvcal::scan_match_t msg = calib::ToMessage(motion);
-      bus.lcm().publish(calib::kScanMatchChannel, &msg);
-    }
-  };
   auto state = [&](const char* what) {
-    const calib::ScanMatchCounts& c = pipeline.counts();
-    const std::string clocks = pipeline.clock_problem().empty() ? "" : "; " + pipeline.clock_problem();
+    const calib::ScanMatchCounts& c = matcher.counts();
+    const std::string clocks = matcher.clock_problem().empty() ? "" : "; " + matcher.clock_problem();
     return std::string(what) + ": " + std::to_string(c.matches) + " matches (" +
            std::to_string(c.invalid) + " failed, " + std::to_string(c.degenerate) +
            " degenerate), " + std::to_string(c.scans_dropped + c.wheels_dropped) + " out of order" + clocks;
   };
-  // Two clock domains (issue 17 item 8) are said once, when the streams first meet.
+  // Two clock domains make every scan unmatchable, which would otherwise show only as no
+  // matches: said on stderr once, as soon as the matcher sees it (when the streams first meet);
+  // every heartbeat's state carries it on.
   bool clocks_said = false;
   auto check_clocks = [&]() {
-    if (clocks_said || pipeline.clock_problem().empty()) return;
+    if (clocks_said || matcher.clock_problem().empty()) return;
     clocks_said = true;
-    std::cerr << "agvcal-scanmatch: " << pipeline.clock_problem() << "\n";
+    std::cerr << "agvcal-scanmatch: " << matcher.clock_problem() << "\n";
   };
   // Catching up also delivers each message once, by stamp, from then on (BusSource::CatchUp).
   if (args.Has("--catch-up")) bus.CatchUp(args.Get("--catch-up", ""), &heartbeat);
@@ -80,13 +86,11 @@ int Run(int argc, char** argv) {
   while (!bus.done()) {
     bus.HandleNext(100);
     check_clocks();
-    publish();
     heartbeat.Beat(state("running"));
   }
   bus.HandleQueued();
-  pipeline.Finish();
-  publish();
-  const calib::ScanMatchCounts& c = pipeline.counts();
+  publish(matcher.Finish());
+  const calib::ScanMatchCounts& c = matcher.counts();
   std::cerr << "agvcal-scanmatch: stopped; received " << c.scans << " scans and " << bus.received(calib::kWheelsChannel)
             << " wheel states; " << c.matches << " matches ("
             << c.invalid << " failed, " << c.degenerate

@@ -12,7 +12,7 @@ set -u
 lcm-logger -f "$TMP/live.log" -c SCAN_MATCH & logger=\$!
 "$BUILD/agvcal-scanmatch" "$robot" 2> "$TMP/scanmatch.err" & matcher=\$!
 sleep 1   # both subscribed before the replay starts
-lcm-logplayer -s 4 "$log"
+lcm-logplayer -s 4 "$SRC/$log"
 sleep 1
 kill -INT \$matcher; wait \$matcher; status=\$?
 sleep 1   # the logger writes from a queue
@@ -31,7 +31,8 @@ if "$CHECK" scanmatch "$log" "$robot" "$TMP/live.log"; then
 else
   fail "live SCAN_MATCH differs from the offline pipeline"
 fi
-left=$(pgrep -f "$BUILD/agvcal-scanmatch|lcm-logger -f $TMP|lcm-logplayer" || true)
+# Only this test's processes: other worktrees' tests may be replaying logs meanwhile.
+left=$(pgrep -f "$BUILD/agvcal-scanmatch|lcm-logger -f $TMP|lcm-logplayer -s 4 $SRC/$log" || true)
 if [ -z "$left" ]; then pass "no process left behind"; else fail "left behind: $left"; fi
 
 # Bad input: no 2D lidar in the robot file, unreadable file, unknown option.

@@ -173,13 +173,17 @@ int Stale(const std::string& log) {
 // recording that was replayed into it.
 int ScanMatch(const std::string& log, const std::string& robot_file, const std::string& live) {
   const calib::RobotDescription robot = calib::LoadRobotFile(robot_file);
-  calib::ScanMatchPipeline pipeline(robot);
+  calib::ScanMatcher matcher(robot);
+  std::vector<calib::SensorMotion> offline;
+  auto keep_matches = [&](const std::vector<calib::ScanMatchOutcome>& outcomes) {
+    for (const calib::ScanMatchOutcome& outcome : outcomes)
+      if (outcome.matched()) offline.push_back(outcome.motion);
+  };
   calib::RecordingSource recording(log);
-  calib::SubscribeWheels(&recording, robot, [&](const calib::WheelSample& s) { pipeline.AddWheels(s); });
-  calib::SubscribeScans(&recording, robot.lidar2d->channel, [&](calib::LaserScan s) { pipeline.AddScan(s); });
+  calib::SubscribeWheels(&recording, robot, [&](const calib::WheelSample& s) { keep_matches(matcher.AddWheels(s)); });
+  calib::SubscribeScans(&recording, robot.lidar2d->channel, [&](calib::LaserScan s) { keep_matches(matcher.AddScan(s)); });
   recording.HandleAll();
-  pipeline.Finish();
-  const std::vector<calib::SensorMotion> offline = pipeline.TakeResults();
+  keep_matches(matcher.Finish());
   std::vector<std::vector<uint8_t>> live_messages;
   calib::LogReader live_reader(live);
   calib::LogEvent e;

@@ -18,7 +18,9 @@
 #include "calib/core/statistics.h"
 #include "calib/core/units.h"
 #include "calib/io/atomic_file.h"
+#include "calib/io/message_source.h"
 #include "calib/io/messages.h"
+#include "calib/match/scan_match.h"
 #include "core/yaml_checked.h"
 
 namespace calib {
@@ -663,20 +665,37 @@ RecalRun RecalibrateLog(const RobotDescription& scan_robot, const CalibrationInU
   RecalRun run;
   run.in_use = start;
   SegmentRecorder recorder(config, scan_robot, source);
-  CalibrationStreamHandlers handlers;
-  handlers.wheels = [&](const WheelSample& w) { recorder.AddWheels(w); };
-  // Through the message, as the live process receives it.
-  handlers.motion = [&](const SensorMotion& m) { recorder.AddMotion(FromMessage(ToMessage(m), log_path)); };
-  handlers.pose = [&](const StampedPose& p) { recorder.AddPose(p); };
-  handlers.event = [&]() {
+  std::optional<ScanMatcher> matcher;
+  if (source == MotionSource::kLidar2d) matcher.emplace(scan_robot);
+  auto add_matches = [&](const std::vector<ScanMatchOutcome>& outcomes) {
+    for (const ScanMatchOutcome& outcome : outcomes) {
+      // Through the message, as the live process receives it.
+      if (outcome.matched()) recorder.AddMotion(FromMessage(ToMessage(outcome.motion), log_path));
+    }
+  };
+
+  RecordingSource log(log_path);
+  SubscribeWheels(&log, scan_robot, [&](const WheelSample& sample) {
+    recorder.AddWheels(sample);
+    if (matcher) add_matches(matcher->AddWheels(sample));
+  });
+  if (matcher)
+    SubscribeScans(&log, ScanChannel(scan_robot), [&](LaserScan scan) { add_matches(matcher->AddScan(scan)); });
+  SubscribePoses(&log, PoseChannel(scan_robot), [&](const StampedPose& pose) { recorder.AddPose(pose); });
+  // A decision as soon as an event completes a batch of segments.
+  while (log.HandleNext(0)) {
     while (std::optional<SegmentBatch> batch = recorder.TakeBatch()) {
       RecalDecision d = Decide(*batch, run.in_use, source, config);
       if (on_decision) on_decision(d);
       run.in_use = d.after;
       run.decisions.push_back(std::move(d));
     }
-  };
-  ReadCalibrationStream(scan_robot, log_path, source == MotionSource::kLidar2d, handlers);
+  }
+  log.Finish();
+  if (matcher) {
+    add_matches(matcher->Finish());
+    ReportScanMatching(*matcher, log_path, nullptr);
+  }
   run.segments = recorder.segments_complete();
   run.dropped = recorder.segments_dropped();
   run.waiting = recorder.segments_waiting();

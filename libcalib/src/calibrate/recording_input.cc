@@ -3,6 +3,7 @@
 #include <cmath>
 #include <optional>
 #include <stdexcept>
+#include <vector>
 
 #include "calib/core/errors.h"
 #include "calib/io/log_summary.h"
@@ -47,51 +48,16 @@ MotionSource ChooseMotionSource(const RobotDescription& robot, const std::string
   return MotionSource::kPose;
 }
 
-void ReadCalibrationStream(const RobotDescription& robot, const std::string& log_path,
-                           bool match_scans, const CalibrationStreamHandlers& handlers,
-                           RecordingSource::Mode mode) {
-  std::optional<ScanMatchPipeline> matcher;
-  if (match_scans) matcher.emplace(robot);
-  auto take_matches = [&]() {
-    for (const SensorMotion& m : matcher->TakeResults())
-      if (handlers.motion) handlers.motion(m);
-  };
-  RecordingSource source(log_path, mode);
-  SubscribeWheels(&source, robot, [&](const WheelSample& sample) {
-    if (handlers.wheels) handlers.wheels(sample);
-    if (matcher) {
-      matcher->AddWheels(sample);
-      take_matches();
-    }
-  });
-  if (matcher) {
-    SubscribeScans(&source, ScanChannel(robot), [&](LaserScan scan) {
-      if (handlers.adjust_scan) handlers.adjust_scan(&scan);
-      matcher->AddScan(scan);
-      take_matches();
-    });
+void ReportScanMatching(const ScanMatcher& matcher, const std::string& log_path,
+                        const std::function<void(const std::string&)>& progress) {
+  const ScanMatchCounts& c = matcher.counts();
+  if (progress) {
+    progress("scan matcher: " + std::to_string(c.scans) + " scans, " + std::to_string(c.matches) +
+             " matched pairs (" + std::to_string(c.invalid) + " failed, of which " + std::to_string(c.wheel_gaps) +
+             " over encoder gaps; " + std::to_string(c.degenerate) + " degenerate)");
   }
-  if (handlers.imu) SubscribeImu(&source, ImuChannel(robot), handlers.imu);
-  if (handlers.pose) SubscribePoses(&source, PoseChannel(robot), handlers.pose);
-  if (handlers.dropped) source.set_on_drop(handlers.dropped);
-  while (source.HandleNext(0)) {
-    if (handlers.event) handlers.event();
-  }
-  source.Finish();  // a growing log's reader does not end by itself (done at the end of a complete one)
-  if (matcher) {
-    matcher->Finish();
-    take_matches();
-    if (handlers.progress) {
-      const ScanMatchCounts& c = matcher->counts();
-      handlers.progress("scan matcher: " + std::to_string(c.scans) + " scans, " + std::to_string(c.matches) +
-               " matched pairs (" + std::to_string(c.invalid) + " failed, of which " +
-               std::to_string(c.wheel_gaps) + " over encoder gaps; " + std::to_string(c.degenerate) +
-               " degenerate)");
-    }
-    // Two clock domains in one recording: said as the cause, not as too little data.
-    if (!matcher->clock_problem().empty() && matcher->counts().matches == 0)
-      throw InputError(log_path, "", matcher->clock_problem());
-  }
+  // Two clock domains in one recording: said as the cause, not as too little data.
+  if (!matcher.clock_problem().empty() && c.matches == 0) throw InputError(log_path, "", matcher.clock_problem());
 }
 
 CalibrationData ReadCalibrationData(const RobotDescription& robot, const std::string& log_path,
@@ -106,30 +72,47 @@ CalibrationData ReadCalibrationData(const RobotDescription& robot, const std::st
                                     const std::function<void(LaserScan*)>& adjust_scan,
                                     int64_t deskew_shift_us, RecordingSource::Mode mode) {
   CalibrationData data(robot);
-  CalibrationStreamHandlers handlers;
-  if (adjust_scan || deskew_shift_us != 0) {
-    handlers.adjust_scan = [&](LaserScan* scan) {
-      if (adjust_scan) adjust_scan(scan);
-      scan->utime -= deskew_shift_us;
-    };
-  }
-  handlers.progress = progress;
-  handlers.wheels = [&](const WheelSample& sample) { data.AddWheels(sample); };
-  handlers.motion = [&](SensorMotion m) {
-    m.utime_start += deskew_shift_us, m.utime_end += deskew_shift_us;
-    data.AddMotion(m);
+  std::optional<ScanMatcher> matcher;
+  if (source == MotionSource::kLidar2d) matcher.emplace(robot);
+  auto add_matches = [&](const std::vector<ScanMatchOutcome>& outcomes) {
+    for (const ScanMatchOutcome& outcome : outcomes) {
+      if (!outcome.matched()) continue;
+      SensorMotion motion = outcome.motion;  // back on the recorded stamps
+      motion.utime_start += deskew_shift_us, motion.utime_end += deskew_shift_us;
+      data.AddMotion(motion);
+    }
   };
-  handlers.dropped = [&](const std::string& note) { data.AddDropped(note); };
-  if (source == MotionSource::kPose) handlers.pose = [&](const StampedPose& p) { data.AddPose(p); };
-  if (source == MotionSource::kImu) handlers.imu = [&](const ImuSample& s) { data.AddImu(s); };
+
+  RecordingSource log(log_path, mode);
+  SubscribeWheels(&log, robot, [&](const WheelSample& sample) {
+    data.AddWheels(sample);
+    if (matcher) add_matches(matcher->AddWheels(sample));
+  });
+  if (matcher) {
+    SubscribeScans(&log, ScanChannel(robot), [&](LaserScan scan) {
+      if (adjust_scan) adjust_scan(&scan);
+      scan.utime -= deskew_shift_us;  // on the wheel clock
+      add_matches(matcher->AddScan(scan));
+    });
+  }
+  if (source == MotionSource::kImu)
+    SubscribeImu(&log, ImuChannel(robot), [&](const ImuSample& sample) { data.AddImu(sample); });
+  if (source == MotionSource::kPose)
+    SubscribePoses(&log, PoseChannel(robot), [&](const StampedPose& pose) { data.AddPose(pose); });
+  log.set_on_drop([&](const std::string& note) { data.AddDropped(note); });
+
   int64_t count = 0;
-  handlers.event = [&]() {
+  while (log.HandleNext(0)) {
     if (progress && ++count % 100000 == 0) {
       progress("read " + std::to_string(count) + " messages, " + std::to_string(data.motions().size()) +
                " motions");
     }
-  };
-  ReadCalibrationStream(robot, log_path, source == MotionSource::kLidar2d, handlers, mode);
+  }
+  log.Finish();  // a growing log's reader does not end by itself (done at the end of a complete one)
+  if (matcher) {
+    add_matches(matcher->Finish());
+    ReportScanMatching(*matcher, log_path, progress);
+  }
   return data;
 }
 

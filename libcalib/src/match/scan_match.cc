@@ -565,9 +565,9 @@ SensorMotion MatchScans(const PreparedScan& reference, const PreparedScan& curre
   return out;
 }
 
-// --- Pipeline
+// --- ScanMatcher
 
-ScanMatchPipeline::ScanMatchPipeline(const RobotDescription& robot, ScanMatchOptions options)
+ScanMatcher::ScanMatcher(const RobotDescription& robot, ScanMatchOptions options)
     : options_(options),
       model_(MakeDriveModel(robot)),
       num_wheels_(WheelRoles(robot.drive).size()) {
@@ -576,7 +576,7 @@ ScanMatchPipeline::ScanMatchPipeline(const RobotDescription& robot, ScanMatchOpt
   mount_ = {robot.lidar2d->x, robot.lidar2d->y, robot.lidar2d->yaw};
 }
 
-ScanMatchPipeline::~ScanMatchPipeline() = default;
+ScanMatcher::~ScanMatcher() = default;
 
 namespace {
 // The median of the last few encoder intervals: the stream's own rate.
@@ -588,16 +588,17 @@ int64_t MedianInterval(std::deque<int64_t> intervals) {
 }
 }  // namespace
 
-void ScanMatchPipeline::AddWheels(const WheelSample& sample) {
+std::vector<ScanMatchOutcome> ScanMatcher::AddWheels(const WheelSample& sample) {
   if (sample.position.size() != num_wheels_ || sample.steer.size() != num_wheels_)
-    throw std::invalid_argument("ScanMatchPipeline::AddWheels: sample has " +
+    throw std::invalid_argument("ScanMatcher::AddWheels: sample has " +
                                 std::to_string(sample.position.size()) + " wheels, expected " +
                                 std::to_string(num_wheels_));
+  std::vector<ScanMatchOutcome> out;
   const bool had_samples = !track_.empty();
   const int64_t previous_utime = had_samples ? track_.last_utime() : 0;
   if (!track_.Append(sample)) {
     ++counts_.wheels_dropped;
-    return;
+    return out;
   }
   ++counts_.wheels;
   if (have_scan_) CheckClocks(last_scan_utime_, sample.utime);
@@ -606,27 +607,29 @@ void ScanMatchPipeline::AddWheels(const WheelSample& sample) {
     if (recent_intervals_.size() > 15) recent_intervals_.pop_front();
   }
   typical_interval_.emplace_back(sample.utime, MedianInterval(recent_intervals_));
-  Process();
+  Process(&out);
+  return out;
 }
 
-void ScanMatchPipeline::AddScan(const LaserScan& scan) {
+std::vector<ScanMatchOutcome> ScanMatcher::AddScan(const LaserScan& scan) {
+  std::vector<ScanMatchOutcome> out;
   if (have_scan_ && scan.utime <= last_scan_utime_) {
     ++counts_.scans_dropped;
-    return;
+    out.push_back({ScanMatchStatus::kOutOfOrder, scan.utime, {}});
+    return out;
   }
   have_scan_ = true;
   last_scan_utime_ = scan.utime;
   ++counts_.scans;
   if (!track_.empty()) CheckClocks(scan.utime, track_.last_utime());
-  pending_.push_back(scan);
-  if (static_cast<int>(pending_.size()) > std::max(options_.max_pending_scans, 1)) {
-    pending_.pop_front();
-    ++counts_.scans_uncovered;
-  }
-  Process();
+  waiting_.push_back(scan);
+  if (static_cast<int>(waiting_.size()) > std::max(options_.max_pending_scans, 1))
+    SkipFirstWaiting(ScanMatchStatus::kNoWheelData, &out);
+  Process(&out);
+  return out;
 }
 
-void ScanMatchPipeline::CheckClocks(int64_t scan_utime, int64_t wheel_utime) {
+void ScanMatcher::CheckClocks(int64_t scan_utime, int64_t wheel_utime) {
   if (clocks_checked_) return;
   clocks_checked_ = true;
   const double gap_s = std::abs(static_cast<double>(scan_utime - wheel_utime)) * 1e-6;
@@ -638,25 +641,26 @@ void ScanMatchPipeline::CheckClocks(int64_t scan_utime, int64_t wheel_utime) {
                 gap_s, scan_utime * 1e-6, wheel_utime * 1e-6);
 }
 
-void ScanMatchPipeline::Finish() {
-  Process(true /* finishing */);
-  counts_.scans_uncovered += static_cast<int64_t>(pending_.size());
-  pending_.clear();
-}
-
-std::vector<SensorMotion> ScanMatchPipeline::TakeResults() {
-  std::vector<SensorMotion> out;
-  out.swap(results_);
+std::vector<ScanMatchOutcome> ScanMatcher::Finish() {
+  std::vector<ScanMatchOutcome> out;
+  Process(&out, true /* finishing */);
+  while (!waiting_.empty()) SkipFirstWaiting(ScanMatchStatus::kNoWheelData, &out);
   return out;
 }
 
-void ScanMatchPipeline::Process(bool finishing) {
+void ScanMatcher::SkipFirstWaiting(ScanMatchStatus why, std::vector<ScanMatchOutcome>* out) {
+  if (why == ScanMatchStatus::kNoWheelData) ++counts_.scans_uncovered;
+  if (why == ScanMatchStatus::kBetweenKeyframes) ++counts_.between_keyframes;
+  out->push_back({why, waiting_.front().utime, {}});
+  waiting_.pop_front();
+}
+
+void ScanMatcher::Process(std::vector<ScanMatchOutcome>* out, bool finishing) {
   bool progressed = false;
-  while (!pending_.empty() && !track_.empty()) {
-    const LaserScan& scan = pending_.front();
+  while (!waiting_.empty() && !track_.empty()) {
+    const LaserScan& scan = waiting_.front();
     if (scan.utime < track_.first_utime()) {  // wheel data began after it: never covered
-      pending_.pop_front();
-      ++counts_.scans_uncovered;
+      SkipFirstWaiting(ScanMatchStatus::kNoWheelData, out);
       continue;
     }
     // The de-skewing smooths the encoder readings over a margin around the
@@ -674,8 +678,7 @@ void ScanMatchPipeline::Process(bool finishing) {
       if (std::hypot(moved.x, moved.y) < options_.keyframe_translation_m &&
           std::abs(moved.theta) < options_.keyframe_rotation_rad &&
           (t1 - t0) * 1e-6 < options_.keyframe_max_interval_s) {
-        pending_.pop_front();
-        ++counts_.between_keyframes;
+        SkipFirstWaiting(ScanMatchStatus::kBetweenKeyframes, out);
         continue;
       }
     }
@@ -684,44 +687,52 @@ void ScanMatchPipeline::Process(bool finishing) {
                         : ScanToPoints(scan),
         options_);
     if (reference_) {
-      const double t0 = double(reference_->utime()), t1 = double(scan.utime);
-      const Pose2 prior = PredictSensorMotion(track_, *model_, mount_, t0, t1);
-      SensorMotion motion = MatchScans(*reference_, prepared, prior, options_);
-      // Encoder gaps over the pair: the prior and the de-skewing are guesses there.
-      const std::vector<int64_t>& utime = track_.utimes();
-      auto it = std::upper_bound(utime.begin(), utime.end(), t0, [](double t, int64_t u) { return t < double(u); });
-      if (it != utime.begin()) --it;
-      // A gap is a dropout when it is longer than max_wheel_gap_s and than
-      // wheel_gap_factor times the stream's median interval before the pair
-      // (a slow encoder stream is the recording's rate, not a gap). The
-      // median is taken over samples before the pair only, so live and
-      // offline agree whatever the interleaving.
-      const int64_t typical =
-          std::lower_bound(typical_interval_.begin(), typical_interval_.end(), *it,
-                           [](const std::pair<int64_t, int64_t>& e, int64_t t) { return e.first < t; })
-              ->second;
-      const double limit_us =
-          1e6 * std::max(options_.max_wheel_gap_s, options_.wheel_gap_factor * double(typical) * 1e-6);
-      int64_t gap = 0;
-      for (; it + 1 != utime.end() && double(*it) < double(scan.end_utime()); ++it)
-        gap = std::max(gap, *(it + 1) - *it);
-      if (double(gap) > limit_us) {
-        motion.valid = false;
-        ++counts_.wheel_gaps;
-      }
-      ++counts_.matches;
-      if (!motion.valid) ++counts_.invalid;
-      if (motion.degenerate) ++counts_.degenerate;
-      results_.push_back(motion);
+      out->push_back({ScanMatchStatus::kMatched, scan.utime, MatchWithReference(scan, prepared)});
+    } else {
+      out->push_back({ScanMatchStatus::kFirstKeyframe, scan.utime, {}});
     }
     reference_.emplace(std::move(prepared));
-    pending_.pop_front();
+    waiting_.pop_front();
     progressed = true;
   }
   if (progressed) ReleaseOldWheels();
 }
 
-void ScanMatchPipeline::ReleaseOldWheels() {
+// The match of `scan` (prepared) with the reference keyframe, refused (valid = false) over an
+// encoder gap.
+SensorMotion ScanMatcher::MatchWithReference(const LaserScan& scan, const PreparedScan& prepared) {
+  const double t0 = double(reference_->utime()), t1 = double(scan.utime);
+  const Pose2 prior = PredictSensorMotion(track_, *model_, mount_, t0, t1);
+  SensorMotion motion = MatchScans(*reference_, prepared, prior, options_);
+  // Encoder gaps over the pair: the prior and the de-skewing are guesses there.
+  const std::vector<int64_t>& utime = track_.utimes();
+  auto it = std::upper_bound(utime.begin(), utime.end(), t0, [](double t, int64_t u) { return t < double(u); });
+  if (it != utime.begin()) --it;
+  // A gap is a dropout when it is longer than max_wheel_gap_s and than
+  // wheel_gap_factor times the stream's median interval before the pair
+  // (a slow encoder stream is the recording's rate, not a gap). The
+  // median is taken over samples before the pair only, so live and
+  // offline agree whatever the interleaving.
+  const int64_t typical =
+      std::lower_bound(typical_interval_.begin(), typical_interval_.end(), *it,
+                       [](const std::pair<int64_t, int64_t>& e, int64_t t) { return e.first < t; })
+          ->second;
+  const double limit_us =
+      1e6 * std::max(options_.max_wheel_gap_s, options_.wheel_gap_factor * double(typical) * 1e-6);
+  int64_t gap = 0;
+  for (; it + 1 != utime.end() && double(*it) < double(scan.end_utime()); ++it)
+    gap = std::max(gap, *(it + 1) - *it);
+  if (double(gap) > limit_us) {
+    motion.valid = false;
+    ++counts_.wheel_gaps;
+  }
+  ++counts_.matches;
+  if (!motion.valid) ++counts_.invalid;
+  if (motion.degenerate) ++counts_.degenerate;
+  return motion;
+}
+
+void ScanMatcher::ReleaseOldWheels() {
   // Keep the last sample at or before the reference scan (the prior starts
   // there) less the smoothing margin (the next scan's de-skewing reads back to there).
   const double t0 = double(reference_->utime()) - std::max(options_.deskew_smoothing_s, 0.0) * 1e6;

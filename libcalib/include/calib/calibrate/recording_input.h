@@ -1,8 +1,8 @@
 #pragma once
 // The calibration's input from a recording, for the offline commands (`agvcal
 // solve`, diagnose, recal): the same data path as the live processes (the
-// messages through a calib/io/message_source.h subscription, scans through the
-// scan matcher pipeline, CalibrationData, Calibrate), fed from a log in its
+// messages through a calib/io/message_source.h subscription, scans through a
+// ScanMatcher, CalibrationData, Calibrate), fed from a log in its
 // order, so a replay through the live group gives the same numbers.
 
 #include <cstddef>
@@ -18,6 +18,7 @@
 #include "calib/core/robot.h"
 #include "calib/core/sensor_data.h"
 #include "calib/io/message_source.h"
+#include "calib/match/scan_match.h"
 
 namespace calib {
 
@@ -36,28 +37,17 @@ struct SolveLogOptions {
 MotionSource ChooseMotionSource(const RobotDescription& robot, const std::string& log_path,
                                 std::optional<MotionSource> requested);
 
-// Receivers of ReadCalibrationStream; an empty one is skipped.
-struct CalibrationStreamHandlers {
-  std::function<void(const WheelSample&)> wheels;
-  std::function<void(const SensorMotion&)> motion;      // scan matches
-  std::function<void(const StampedPose&)> pose;         // the external pose source's channel
-  std::function<void(const ImuSample&)> imu;            // the robot's IMU channel
-  std::function<void()> event;                          // after every event of the log
-  std::function<void(LaserScan*)> adjust_scan;           // applied to each scan before matching
-  std::function<void(const std::string&)> progress;     // the scan matcher's counts at the end
-  std::function<void(const std::string&)> dropped;      // a message left out (MessageSource::Drop)
-};
+// After the last scan of a recording has gone through `matcher` (ScanMatcher::Finish): its counts
+// said to `progress` (may be empty), and two clock domains in the recording thrown as the cause
+// (InputError naming `log_path`) when no scan could be matched.
+void ReportScanMatching(const ScanMatcher& matcher, const std::string& log_path,
+                        const std::function<void(const std::string&)>& progress);
 
-// Feeds the log's WHEELS, scan matches (when `match_scans`: the robot file's 2D lidar channel
-// through ScanMatchPipeline, as the live scan matcher), POSE and IMU to `handlers`, in log order.
-// Throws InputError naming the log and the event for a message that does not decode or
-// convert (calib/io/message_source.h). `mode` kGrowing: a log still being written, read to
-// its last complete event (a complete log reads the same either way).
-void ReadCalibrationStream(const RobotDescription& robot, const std::string& log_path,
-                           bool match_scans, const CalibrationStreamHandlers& handlers,
-                           RecordingSource::Mode mode = RecordingSource::Mode::kComplete);
-
-// Reads WHEELS and the sensor's channel from the log; scans are scan-matched.
+// Reads WHEELS and the sensor's channel from the log into CalibrationData, in log order, as the
+// live processes receive them: wheel samples through SubscribeWheels, scans (source kLidar2d: the
+// robot file's 2D lidar channel) through SubscribeScans into a ScanMatcher, whose matches are
+// added as motions; poses or IMU samples for those sources. Throws InputError naming the log and
+// the event for a message that does not decode or convert (calib/io/message_source.h).
 CalibrationData ReadCalibrationData(const RobotDescription& robot, const std::string& log_path,
                                     MotionSource source,
                                     const std::function<void(const std::string&)>& progress);

@@ -9,15 +9,17 @@
 // corridor) keeps the odometry's prediction. Steps: de-skew each scan with the
 // odometry (DeskewScan), fit a line around each point (PreparedScan), then
 // point-to-line ICP one way (MatchPointsToLines) or both ways averaged
-// (MatchScans); ScanMatchPipeline runs them on the two streams.
+// (MatchScans); ScanMatcher runs them on the two streams.
 // Method, choices and measured figures: docs/calibration.md, "Scan matching".
 //
-// All functions are deterministic; no state outside their arguments.
+// All functions are deterministic; no state outside their arguments (ScanMatcher's
+// outside the object).
 
 #include <cstdint>
 #include <deque>
 #include <memory>
 #include <optional>
+#include <string>
 #include <utility>
 #include <vector>
 
@@ -162,47 +164,62 @@ SensorMotion MatchScans(const PreparedScan& reference, const PreparedScan& curre
                         const Pose2& prior, const ScanMatchOptions& options,
                         ScanMatchReport* report = nullptr);
 
-// What the pipeline has seen and done.
+// What a ScanMatcher has seen and done.
 struct ScanMatchCounts {
   int64_t wheels = 0;          // wheel samples accepted
   int64_t wheels_dropped = 0;  // stamp at or before the previous sample's (out of order, duplicate)
   int64_t scans = 0;           // scans accepted
   int64_t scans_dropped = 0;   // stamp at or before the previous scan's
-  int64_t scans_uncovered = 0;  // never covered by wheel data (before the first sample,
-                                // beyond the last at Finish, or too many waiting)
-  int64_t matches = 0;          // results produced
+  int64_t scans_uncovered = 0;  // never covered by wheel data (kNoWheelData)
+  int64_t matches = 0;          // scans matched (kMatched)
   int64_t invalid = 0;          // of which valid = false
   int64_t degenerate = 0;       // of which degenerate
   int64_t wheel_gaps = 0;       // of the invalid: an encoder gap too long (max_wheel_gap_s)
   int64_t between_keyframes = 0;  // scans skipped: too little motion since the last keyframe
 };
 
+// What became of one scan fed to a ScanMatcher.
+enum class ScanMatchStatus {
+  kMatched,           // matched with the previous keyframe: `motion` (valid = false: the match failed)
+  kFirstKeyframe,     // the first scan the wheel data cover: the reference of the next, no motion yet
+  kBetweenKeyframes,  // skipped: too little motion since the last keyframe
+  kOutOfOrder,        // skipped: its stamp is at or before the previous scan's
+  kNoWheelData,       // skipped: the wheel data never cover it (it begins before the first sample,
+                      // ends beyond the last at Finish, or too many scans wait)
+};
+
+struct ScanMatchOutcome {
+  ScanMatchStatus status = ScanMatchStatus::kMatched;
+  int64_t scan_utime = 0;
+  SensorMotion motion;  // kMatched only: from the previous keyframe to this scan
+  bool matched() const { return status == ScanMatchStatus::kMatched; }
+};
+
 // The incremental front end shared by the live process and the offline
-// solver: wheel samples and scans in, one SensorMotion per pair of
-// consecutive scans out, in stamp order. Scan k is matched to scan k+1 once
-// the wheel data cover both scans entirely (and the de-skewing's smoothing
-// margin after them), so the results depend only on the order of the wheel
-// samples among themselves and of the scans among themselves, not on how the
-// two streams interleave (provided the wheels lag the scans by fewer than
-// max_pending_scans scans). Out-of-order and duplicated stamps are dropped
-// and counted. A scan that begins before the first wheel sample is never
-// covered (dropped, counted). Memory stays bounded: wheel samples older than
-// the reference scan (less the smoothing margin) are released.
-class ScanMatchPipeline {
+// solver: a plain object fed wheel samples and scans in the order they come,
+// each call returning the outcomes it completed. Every scan gets one outcome,
+// in the order of the scans (an out-of-order scan's at once); a matched scan's
+// carries the SensorMotion from the previous keyframe. A scan waits, without
+// an outcome, until the wheel data cover it entirely (and the de-skewing's
+// smoothing margin after it), so the results depend only on the order of the
+// wheel samples among themselves and of the scans among themselves, not on
+// how the two streams interleave (provided the wheels lag the scans by fewer
+// than max_pending_scans scans). Out-of-order and duplicated stamps are
+// dropped and counted. Memory stays bounded: wheel samples older than the
+// reference scan (less the smoothing margin) are released.
+class ScanMatcher {
  public:
   // Uses the robot file's nominal drive model and lidar2d mount. Throws
   // InputError (the robot file) if it has no lidar2d.
-  explicit ScanMatchPipeline(const RobotDescription& robot, ScanMatchOptions options = {});
-  ~ScanMatchPipeline();
+  explicit ScanMatcher(const RobotDescription& robot, ScanMatchOptions options = {});
+  ~ScanMatcher();
 
   // Throws std::invalid_argument for a sample with the wrong number of wheels.
-  void AddWheels(const WheelSample& sample);
-  void AddScan(const LaserScan& scan);
+  std::vector<ScanMatchOutcome> AddWheels(const WheelSample& sample);
+  std::vector<ScanMatchOutcome> AddScan(const LaserScan& scan);
   // End of data: scans whose beams the wheel data cover are matched (their
-  // smoothing margin cut to the data there is), the rest dropped (counted).
-  void Finish();
-  // The results completed since the last call, in stamp order.
-  std::vector<SensorMotion> TakeResults();
+  // smoothing margin cut to the data there is), the rest skipped (kNoWheelData).
+  std::vector<ScanMatchOutcome> Finish();
 
   const ScanMatchCounts& counts() const { return counts_; }
   const ScanMatchOptions& options() const { return options_; }
@@ -215,7 +232,11 @@ class ScanMatchPipeline {
 
  private:
   void CheckClocks(int64_t scan_utime, int64_t wheel_utime);
-  void Process(bool finishing = false);
+  // Settles the waiting scans the wheel data now cover, in order, into `out`.
+  void Process(std::vector<ScanMatchOutcome>* out, bool finishing = false);
+  SensorMotion MatchWithReference(const LaserScan& scan, const PreparedScan& prepared);
+  // Takes the first waiting scan off, with its outcome.
+  void SkipFirstWaiting(ScanMatchStatus why, std::vector<ScanMatchOutcome>* out);
   void ReleaseOldWheels();
 
   ScanMatchOptions options_;
@@ -225,13 +246,12 @@ class ScanMatchPipeline {
   WheelTrack track_;
   std::deque<int64_t> recent_intervals_;                       // last encoder intervals, us
   std::deque<std::pair<int64_t, int64_t>> typical_interval_;  // per track sample: utime, median interval
-  std::deque<LaserScan> pending_;
+  std::deque<LaserScan> waiting_;                              // for wheel data to cover them
   std::optional<PreparedScan> reference_;
   bool have_scan_ = false;
   int64_t last_scan_utime_ = 0;
   bool clocks_checked_ = false;
   std::string clock_problem_;
-  std::vector<SensorMotion> results_;
   ScanMatchCounts counts_;
 };
 
