@@ -226,13 +226,21 @@ TEST(RobotFileTest, NonNumericParam) {
 
 TEST(RobotFileTest, ImplausibleValues) {
   ExpectError(Replace(kTricycle, "drive_radius: 0.115", "drive_radius: -0.115"), 5,
-              "params.drive_radius", "must be > 0");
+              "params.drive_radius", "must be from 0.001 to 100 m");
   ExpectError(Replace(kTricycle, "wheelbase: 1.42", "wheelbase: 0"), 6, "params.wheelbase",
-              "must be > 0");
+              "must be from 0.001 to 100 m");
   ExpectError(Replace(kTricycle, "steer_offset: 0.0", "steer_offset: 1.7"), 7,
               "params.steer_offset", "within ±pi/2");
   ExpectError(Replace(kTricycle, "max_speed: 0.6", "max_speed: 0"), 9, "limits.max_speed",
-              "must be > 0");
+              "must be from 0.001 to 100 m/s");
+  // Values the reader took but no robot has: blamed on the robot file, not on the recording.
+  ExpectError(Replace(kTricycle, "drive_radius: 0.115", "drive_radius: 1e-300"), 5, "params.drive_radius",
+              "must be from 0.001 to 100 m, got '1e-300'");
+  ExpectError(Replace(kTricycle, "x: 1.60", "x: 1e300"), 8, "lidar2d.x", "must be from -100 to 100 m");
+  ExpectError(Replace(kTricycle, "max_speed: 0.6", "max_speed: 1e-300"), 9, "limits.max_speed",
+              "must be from 0.001 to 100 m/s");
+  ExpectError(Replace(kTricycle, "max_omega: 0.6", "max_omega: 1e9"), 9, "limits.max_omega",
+              "must be from 0.001 to 100 rad/s");
   const std::string dual =
       "name: agv\n"
       "drive: dual_steer\n"

@@ -17,6 +17,7 @@
 #include "calib/calibrate/time_offset_search.h"
 #include "calib/core/errors.h"
 #include "calib/core/statistics.h"
+#include "calib/core/units.h"
 
 namespace calib {
 namespace {
@@ -619,6 +620,18 @@ CalibrationResult Calibrate(const RobotDescription& robot, const WheelTrack& whe
   SummarizeResiduals(intervals, state, nominal, scale, num_fit, dim, &result);
   const std::vector<double> sigma = Covariance(InlierScores(intervals, state, num_params, with_offset, scale), &result);
   SetEstimates(state, nominal, sigma, source, with_offset, &result);
+  // A wheel radius fitted at or below zero is no robot's: the readings belong to other roles
+  // than the robot file gives them (the cause, not "cannot determine"; no model is made of it).
+  for (const std::string& role : WheelRoles(robot.drive)) {
+    const std::string name = RadiusParamName(role);
+    const auto it = result.params.find(name);
+    if (it != result.params.end() && !(it->second.value > 0.0)) {
+      throw InputError(robot.source_file, "wheels",
+                       Formatted("the recording's wheel readings do not fit this drive: the fit gives %s = %g m "
+                                 "(wheels: names given to the wrong roles, e.g. two swapped, or the wrong drive type?)",
+                                 name.c_str(), it->second.value));
+    }
+  }
   RefuseUndetermined(robot.drive, nominal, sigma, options.check_observability, origin, &result);
 
   // 4. Held-out comparison of the nominal and the calibrated model.

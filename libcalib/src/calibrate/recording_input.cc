@@ -1,5 +1,7 @@
 #include "calib/calibrate/recording_input.h"
 
+#include <sys/stat.h>
+
 #include <cmath>
 #include <optional>
 #include <stdexcept>
@@ -15,13 +17,22 @@ namespace calib {
 
 MotionSource ChooseMotionSource(const RobotDescription& robot, const std::string& log_path,
                                 std::optional<MotionSource> requested) {
+  // A pipe can be read once; the calibration reads its recording several times.
+  struct stat info {};
+  if (::stat(log_path.c_str(), &info) == 0 && S_ISFIFO(info.st_mode))
+    throw InputError(log_path, "", "a pipe or FIFO: the recording is read more than once; save it to a file first");
   const LogSummary summary = SummarizeLog(log_path);
   auto has = [&](const std::string& channel) {
     const auto it = summary.channels.find(channel);
     return it != summary.channels.end() && it->second.count > 0;
   };
+  // What a missing channel's message adds: the channels there are, as they are spelled
+  // ("SCAN\x20" for a trailing space, io/recording.h's PrintableChannel).
+  std::string present;
+  for (const auto& [name, channel] : summary.channels) present += (present.empty() ? "" : ", ") + PrintableChannel(name);
+  const std::string not_there = "not in the recording (it has " + present + ")";
   if (!has(kWheelsChannel))
-    throw InputError(log_path, "channel " + std::string(kWheelsChannel), "not in the recording");
+    throw InputError(log_path, "channel " + std::string(kWheelsChannel), not_there);
   const std::string scan = ScanChannel(robot);
   const std::string pose = PoseChannel(robot);
   const std::string imu = ImuChannel(robot);
@@ -30,20 +41,27 @@ MotionSource ChooseMotionSource(const RobotDescription& robot, const std::string
   if (requested == MotionSource::kImu || (!requested && !has(scan) && !has(pose) && robot.imu && has(imu) &&
                                           robot.drive == DriveType::kDifferential)) {
     if (!robot.imu) throw InputError(robot.source_file, "imu", "no IMU in the robot file (needed for --source imu)");
-    if (!has(imu)) throw InputError(log_path, "channel " + imu, "not in the recording (needed for the IMU)");
+    if (!has(imu)) throw InputError(log_path, "channel " + imu, not_there + "; needed for the IMU");
     return MotionSource::kImu;
   }
   if (requested == MotionSource::kLidar2d || (!requested && robot.lidar2d && has(scan))) {
     if (!has(scan))
-      throw InputError(log_path, "channel " + scan, "not in the recording (needed for the 2D lidar)");
+      throw InputError(log_path, "channel " + scan, not_there + "; needed for the 2D lidar");
     return MotionSource::kLidar2d;
   }
   if (requested == MotionSource::kPose && !has(pose))
-    throw InputError(log_path, "channel " + pose, "not in the recording (needed for --source pose)");
+    throw InputError(log_path, "channel " + pose, not_there + "; needed for --source pose");
+  // Scans the robot file cannot use: its lidar2d is missing, not the recording's scans.
+  if (!has(pose) && !robot.lidar2d && has(scan)) {
+    throw InputError(robot.source_file, "lidar2d",
+                     "no 2D lidar in the robot file, but the recording has " +
+                         std::to_string(summary.channels.at(scan).count) + " scans on " + scan +
+                         " (add lidar2d: {channel: " + scan + ", x: ..., y: ..., yaw: ...})");
+  }
   if (!has(pose)) {
     throw InputError(log_path, "channels " + scan + " / " + pose + " / " + imu,
                      "neither scans of the robot's 2D lidar, external poses nor the robot's IMU in "
-                     "the recording");
+                     "the recording (it has " + present + ")");
   }
   return MotionSource::kPose;
 }
@@ -88,8 +106,16 @@ CalibrationData ReadCalibrationData(const RobotDescription& robot, const std::st
     data.AddWheels(sample);
     if (matcher) add_matches(matcher->AddWheels(sample));
   });
+  int64_t scans = 0, scans_with_returns = 0;
   if (matcher) {
     SubscribeScans(&log, ScanChannel(robot), [&](LaserScan scan) {
+      ++scans;
+      for (int i = 0; i < scan.size(); ++i) {
+        if (scan.HasReturn(i)) {
+          ++scans_with_returns;
+          break;
+        }
+      }
       if (adjust_scan) adjust_scan(&scan);
       scan.utime -= deskew_shift_us;  // on the wheel clock
       add_matches(matcher->AddScan(scan));
@@ -112,6 +138,12 @@ CalibrationData ReadCalibrationData(const RobotDescription& robot, const std::st
   if (matcher) {
     add_matches(matcher->Finish());
     ReportScanMatching(*matcher, log_path, progress);
+    // Scans without a single return (all NaN, all out of range): said as the cause, not as too
+    // little data.
+    if (scans > 0 && scans_with_returns == 0)
+      throw InputError(log_path, "channel " + PrintableChannel(ScanChannel(robot)),
+                       "none of the " + std::to_string(scans) +
+                           " scans has a return (every range NaN, infinite or outside [range_min, range_max])");
   }
   return data;
 }

@@ -13,6 +13,7 @@
 
 #include "calib/core/errors.h"
 #include "calib/core/robot.h"
+#include "calib/core/units.h"
 #include "core/yaml_checked.h"
 
 namespace calib {
@@ -78,6 +79,35 @@ std::map<std::string, std::string> ReadWheels(const Reporter& reporter, const Fi
 // No wheel, track or wheel position of a vehicle is this large: a value beyond it is a typo or
 // a unit slip, which would otherwise surface as an unusable log ("only 4 usable intervals").
 constexpr double kMaxLengthM = 100.0;
+// Nor one smaller than a millimetre (a radius of 1e-300 would make every wheel turn "impossible").
+constexpr double kMinLengthM = 0.001;
+// No robot is slower than this or faster than that (m/s, rad/s, m/s^2): a limit outside is a
+// typo or a unit slip, which the wheel gate would otherwise turn into dropped data.
+constexpr double kMinLimit = 0.001;
+constexpr double kMaxLimit = 100.0;
+
+double ReadBetween(const Reporter& reporter, const Field& field, double low, double high, const std::string& unit) {
+  const double value = ReadNumber(reporter, field);
+  if (!(value >= low && value <= high))
+    reporter.Fail(field, Formatted("must be from %g to %g %s, got ", low, high, unit.c_str()) + Describe(field.value));
+  return value;
+}
+
+// A position in the robot frame (m), and a positive length (a radius, a height).
+double ReadCoordinate(const Reporter& reporter, const Field& field) {
+  return ReadBetween(reporter, field, -kMaxLengthM, kMaxLengthM, "m");
+}
+double ReadLength(const Reporter& reporter, const Field& field) {
+  return ReadBetween(reporter, field, kMinLengthM, kMaxLengthM, "m");
+}
+double CoordinateOr(const Reporter& reporter, const CheckedMap& map, const std::string& key) {
+  const auto field = map.Find(key);
+  return field ? ReadCoordinate(reporter, *field) : 0.0;
+}
+double YawOr(const Reporter& reporter, const CheckedMap& map, const std::string& key) {
+  const auto field = map.Find(key);
+  return field ? ReadBounded(reporter, *field, 2 * kPi, "2 pi") : 0.0;
+}
 
 std::map<std::string, double> ReadParams(const Reporter& reporter, const Field& field,
                                          DriveType drive) {
@@ -96,9 +126,7 @@ std::map<std::string, double> ReadParams(const Reporter& reporter, const Field& 
       params[name] = ReadBounded(reporter, param, kHalfPi, "pi/2");
       continue;
     }
-    params[name] = is_length ? ReadPositive(reporter, param) : ReadNumber(reporter, param);
-    if (std::abs(params[name]) > kMaxLengthM)
-      reporter.Fail(param, "must be at most 100 m in size, got " + Describe(param.value));
+    params[name] = is_length ? ReadLength(reporter, param) : ReadCoordinate(reporter, param);
   }
   if (drive == DriveType::kDualSteer && params["a"] == 0.0 && params["b"] == 0.0) {
     reporter.Fail(map.Get("a").line, map.path() + ".a",
@@ -111,9 +139,9 @@ Mount2d ReadMount2d(const Reporter& reporter, const Field& field, const std::str
   const CheckedMap map(reporter, field, {"channel", "x", "y", "yaw"});
   Mount2d mount;
   mount.channel = ChannelOr(reporter, map, channel);
-  mount.x = NumberOr(reporter, map, "x", 0.0);
-  mount.y = NumberOr(reporter, map, "y", 0.0);
-  mount.yaw = NumberOr(reporter, map, "yaw", 0.0);
+  mount.x = CoordinateOr(reporter, map, "x");
+  mount.y = CoordinateOr(reporter, map, "y");
+  mount.yaw = YawOr(reporter, map, "yaw");
   return mount;
 }
 
@@ -121,7 +149,7 @@ std::array<double, 3> ReadPoint3(const Reporter& reporter, const Field& field) {
   if (!field.value.IsSequence() || field.value.size() != 3)
     reporter.Fail(field, "expected [x, y, z], got " + Describe(field.value));
   std::array<double, 3> v{};
-  for (size_t i = 0; i < 3; ++i) v[i] = ReadNumber(reporter, Field{field.path, field.line, field.value[i]});
+  for (size_t i = 0; i < 3; ++i) v[i] = ReadCoordinate(reporter, Field{field.path, field.line, field.value[i]});
   return v;
 }
 
@@ -163,12 +191,12 @@ Mount3d ReadMount3d(const Reporter& reporter, const Field& field) {
   Mount3d mount;
   mount.channel = ChannelOr(reporter, map, "CLOUD");
   // The height is what the floor observes; a nominal value is needed to start from.
-  mount.z = ReadPositive(reporter, map.Get("z", "height of the 3D lidar above the floor, m"));
+  mount.z = ReadLength(reporter, map.Get("z", "height of the 3D lidar above the floor, m"));
   if (const auto f = map.Find("pitch")) mount.pitch = ReadBounded(reporter, *f, kHalfPi, "pi/2");
   if (const auto f = map.Find("roll")) mount.roll = ReadBounded(reporter, *f, kHalfPi, "pi/2");
-  mount.x = NumberOr(reporter, map, "x", 0.0);
-  mount.y = NumberOr(reporter, map, "y", 0.0);
-  mount.yaw = NumberOr(reporter, map, "yaw", 0.0);
+  mount.x = CoordinateOr(reporter, map, "x");
+  mount.y = CoordinateOr(reporter, map, "y");
+  mount.yaw = YawOr(reporter, map, "yaw");
   if (const auto f = map.Find("body")) mount.body = ReadBody(reporter, *f);
   if (const auto f = map.Find("rotation")) mount.rotation = ReadRotation(reporter, *f);
   return mount;
@@ -179,13 +207,13 @@ ImuMount ReadImu(const Reporter& reporter, const Field& field) {
                                         "gyro_noise", "wheel_noise", "distance"});
   ImuMount mount;
   mount.channel = ChannelOr(reporter, map, "IMU");
-  mount.yaw = NumberOr(reporter, map, "yaw", 0.0);
+  mount.yaw = YawOr(reporter, map, "yaw");
   mount.gyro_bias = NumberOr(reporter, map, "gyro_bias", mount.gyro_bias);
   if (const auto f = map.Find("gyro_scale")) mount.gyro_scale = ReadPositive(reporter, *f);
   mount.time_offset = NumberOr(reporter, map, "time_offset", mount.time_offset);
   if (const auto f = map.Find("gyro_noise")) mount.gyro_noise = ReadPositive(reporter, *f);
   if (const auto f = map.Find("wheel_noise")) mount.wheel_noise = ReadPositive(reporter, *f);
-  if (const auto f = map.Find("distance")) mount.distance = ReadPositive(reporter, *f);
+  if (const auto f = map.Find("distance")) mount.distance = ReadLength(reporter, *f);
   return mount;
 }
 
@@ -193,14 +221,14 @@ Limits ReadLimits(const Reporter& reporter, const Field& field) {
   const CheckedMap map(reporter, field,
                        {"max_speed", "max_omega", "max_accel", "max_steer", "max_steer_rate"});
   Limits limits;
-  if (const auto f = map.Find("max_speed")) limits.max_speed = ReadPositive(reporter, *f);
-  if (const auto f = map.Find("max_omega")) limits.max_omega = ReadPositive(reporter, *f);
-  if (const auto f = map.Find("max_accel")) limits.max_accel = ReadPositive(reporter, *f);
-  if (const auto f = map.Find("max_steer")) {
-    limits.max_steer = ReadPositive(reporter, *f);
-    if (limits.max_steer > kPi) reporter.Fail(*f, "must be <= pi rad, got " + Describe(f->value));
-  }
-  if (const auto f = map.Find("max_steer_rate")) limits.max_steer_rate = ReadPositive(reporter, *f);
+  auto read = [&](const char* key, double* value, double high, const char* unit) {
+    if (const auto f = map.Find(key)) *value = ReadBetween(reporter, *f, kMinLimit, high, unit);
+  };
+  read("max_speed", &limits.max_speed, kMaxLimit, "m/s");
+  read("max_omega", &limits.max_omega, kMaxLimit, "rad/s");
+  read("max_accel", &limits.max_accel, kMaxLimit, "m/s^2");
+  read("max_steer", &limits.max_steer, kPi, "rad (pi)");
+  read("max_steer_rate", &limits.max_steer_rate, kMaxLimit, "rad/s");
   return limits;
 }
 

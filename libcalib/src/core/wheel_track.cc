@@ -3,6 +3,7 @@
 #include <algorithm>
 #include <cmath>
 #include <cstdio>
+#include <utility>
 
 #include "calib/core/units.h"
 
@@ -111,92 +112,32 @@ Pose2 WheelTrack::Odometry(const DriveModel& model, double t0, double t1) const 
 
 namespace {
 
-constexpr std::size_t kSpacingWindow = 15;  // intervals in the median of the usual spacing
+// The wheels' own check: a position jump no wheel can make in the time since the last sample.
+StampGate<WheelSample>::Check WheelJumpCheck(const RobotDescription& robot, double speed_factor) {
+  std::vector<std::string> names;
+  std::vector<double> max_rate;  // rad/s per role: limits.max_speed / radius
+  for (const std::string& role : WheelRoles(robot.drive)) {
+    names.push_back(robot.wheel_name(role));
+    max_rate.push_back(robot.limits.max_speed / robot.param(RadiusParamName(role)));
+  }
+  return [names, max_rate, speed_factor](const WheelSample& last, const WheelSample& next, double dt,
+                                         double spacing) -> std::string {
+    for (std::size_t i = 0; i < max_rate.size(); ++i) {
+      const double jump = next.position[i] - last.position[i];
+      const double limit = speed_factor * max_rate[i] * std::max(dt, spacing);
+      if (std::abs(jump) > limit) {
+        return "wheel '" + names[i] + "' position jumps " + Formatted("%+.6g rad in %.6g s", jump, dt) +
+               Formatted(", more than %.6g rad (%g x limits.max_speed / radius): dropped", limit, speed_factor);
+      }
+    }
+    return "";
+  };
+}
 
 }  // namespace
 
 WheelSampleGate::WheelSampleGate(const RobotDescription& robot, DropHandler on_drop, WheelGateOptions options)
-    : on_drop_(std::move(on_drop)), options_(options) {
-  for (const std::string& role : WheelRoles(robot.drive)) {
-    names_.push_back(robot.wheel_name(role));
-    max_rate_.push_back(robot.limits.max_speed / robot.param(RadiusParamName(role)));
-  }
-}
-
-std::vector<WheelSample> WheelSampleGate::Add(const WheelSample& sample, const std::string& origin) {
-  std::vector<WheelSample> out;
-  if (held_) {
-    if (sample.utime > held_->sample.utime) {
-      Pass(held_->sample, &out);  // the gap was real
-    } else if (sample.utime > last_->utime) {
-      Drop(held_->origin, Formatted("stamp %.6f s after the previous sample's, %.6f s after the next one's: "
-                                 "dropped alone",
-                                 double(held_->sample.utime - last_->utime) * 1e-6,
-                                 double(held_->sample.utime - sample.utime) * 1e-6));
-    } else {
-      Drop(origin, "stamp not after the previous sample's (out of order or repeated)");
-      return out;
-    }
-    held_.reset();
-  }
-  Take(sample, origin, &out);
-  return out;
-}
-
-std::vector<WheelSample> WheelSampleGate::Finish() {
-  std::vector<WheelSample> out;
-  if (held_) Pass(held_->sample, &out);
-  held_.reset();
-  return out;
-}
-
-void WheelSampleGate::Take(const WheelSample& sample, const std::string& origin, std::vector<WheelSample>* out) {
-  if (!last_) {
-    Pass(sample, out);
-    return;
-  }
-  const double dt = double(sample.utime - last_->utime) * 1e-6;
-  if (dt <= 0.0) {
-    Drop(origin, "stamp not after the previous sample's (out of order or repeated)");
-    return;
-  }
-  const double spacing = Spacing();
-  for (std::size_t i = 0; i < max_rate_.size(); ++i) {
-    const double jump = sample.position[i] - last_->position[i];
-    const double limit = options_.speed_factor * max_rate_[i] * std::max(dt, spacing);
-    if (std::abs(jump) > limit) {
-      Drop(origin, "wheel '" + names_[i] + "' position jumps " + Formatted("%+.6g rad in %.6g s", jump, dt) +
-                       Formatted(", more than %.6g rad (%g x limits.max_speed / radius): dropped", limit,
-                              options_.speed_factor));
-      return;
-    }
-  }
-  if (spacing > 0.0 && dt > std::max(options_.stamp_gap_spacings * spacing, options_.min_stamp_gap_s)) {
-    held_ = Pending{sample, origin};
-    return;
-  }
-  Pass(sample, out);
-}
-
-void WheelSampleGate::Pass(const WheelSample& sample, std::vector<WheelSample>* out) {
-  if (last_) {
-    intervals_.push_back(double(sample.utime - last_->utime) * 1e-6);
-    if (intervals_.size() > kSpacingWindow) intervals_.pop_front();
-  }
-  last_ = sample;
-  out->push_back(sample);
-}
-
-void WheelSampleGate::Drop(const std::string& origin, const std::string& problem) {
-  ++dropped_;
-  if (on_drop_) on_drop_(origin, problem);
-}
-
-double WheelSampleGate::Spacing() const {
-  if (intervals_.empty()) return 0.0;
-  std::vector<double> sorted(intervals_.begin(), intervals_.end());
-  std::nth_element(sorted.begin(), sorted.begin() + sorted.size() / 2, sorted.end());
-  return sorted[sorted.size() / 2];
-}
+    : StampGate<WheelSample>(std::move(on_drop), WheelJumpCheck(robot, options.speed_factor),
+            StampGateOptions{options.stamp_gap_spacings, options.min_stamp_gap_s}) {}
 
 }  // namespace calib

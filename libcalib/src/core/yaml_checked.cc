@@ -11,6 +11,7 @@
 #include <yaml-cpp/eventhandler.h>
 
 #include "calib/core/errors.h"
+#include "calib/core/input_file.h"
 
 namespace calib {
 namespace yaml {
@@ -157,19 +158,45 @@ double NumberOr(const Reporter& reporter, const CheckedMap& map, const std::stri
 }
 
 namespace {
-// Where the documents of a text start, without building them.
+// Where the documents of a text start, without building them; and how deep and how large the
+// text is, so that a nest or a list no config has is refused before yaml-cpp builds it (its
+// nodes take hundreds of bytes each; a deep nest recurses).
+constexpr int kMaxYamlDepth = 32;
+constexpr long kMaxYamlNodes = 100000;
+
 class DocumentStarts : public YAML::EventHandler {
  public:
+  explicit DocumentStarts(const Reporter& reporter) : reporter_(reporter) {}
   std::vector<YAML::Mark> marks;
   void OnDocumentStart(const YAML::Mark& mark) override { marks.push_back(mark); }
   void OnDocumentEnd() override {}
-  void OnNull(const YAML::Mark&, YAML::anchor_t) override {}
-  void OnAlias(const YAML::Mark&, YAML::anchor_t) override {}
-  void OnScalar(const YAML::Mark&, const std::string&, YAML::anchor_t, const std::string&) override {}
-  void OnSequenceStart(const YAML::Mark&, const std::string&, YAML::anchor_t, YAML::EmitterStyle::value) override {}
-  void OnSequenceEnd() override {}
-  void OnMapStart(const YAML::Mark&, const std::string&, YAML::anchor_t, YAML::EmitterStyle::value) override {}
-  void OnMapEnd() override {}
+  void OnNull(const YAML::Mark& mark, YAML::anchor_t) override { Count(mark); }
+  void OnAlias(const YAML::Mark& mark, YAML::anchor_t) override { Count(mark); }
+  void OnScalar(const YAML::Mark& mark, const std::string&, YAML::anchor_t, const std::string&) override {
+    Count(mark);
+  }
+  void OnSequenceStart(const YAML::Mark& mark, const std::string&, YAML::anchor_t, YAML::EmitterStyle::value) override {
+    Open(mark);
+  }
+  void OnSequenceEnd() override { --depth_; }
+  void OnMapStart(const YAML::Mark& mark, const std::string&, YAML::anchor_t, YAML::EmitterStyle::value) override {
+    Open(mark);
+  }
+  void OnMapEnd() override { --depth_; }
+
+ private:
+  void Count(const YAML::Mark& mark) {
+    if (++nodes_ > kMaxYamlNodes)
+      reporter_.Fail(LineOf(mark), "", "more than " + std::to_string(kMaxYamlNodes) + " values: no config is this large");
+  }
+  void Open(const YAML::Mark& mark) {
+    Count(mark);
+    if (++depth_ > kMaxYamlDepth)
+      reporter_.Fail(LineOf(mark), "", "nested more than " + std::to_string(kMaxYamlDepth) + " levels deep: no config is");
+  }
+  const Reporter& reporter_;
+  int depth_ = 0;
+  long nodes_ = 0;
 };
 }  // namespace
 
@@ -181,7 +208,7 @@ Field ParseSingleDocument(const Reporter& reporter, const std::string& text, con
   try {
     std::istringstream stream(text);
     YAML::Parser parser(stream);
-    DocumentStarts starts;
+    DocumentStarts starts(reporter);
     while (starts.marks.size() < 2 && parser.HandleNextDocument(starts)) {
     }
     if (starts.marks.size() > 1) {
@@ -203,15 +230,7 @@ Field ParseSingleDocument(const Reporter& reporter, const std::string& text, con
 }
 
 std::string ReadTextFile(const std::string& path, const std::string& what) {
-  std::error_code ec;
-  if (std::filesystem::is_directory(path, ec))
-    throw InputError(path, "", "cannot read " + what + ": is a directory");
-  std::ifstream in(path, std::ios::binary);
-  if (!in) throw InputError(path, "", "cannot read " + what + ": " + std::strerror(errno));
-  std::ostringstream text;
-  text << in.rdbuf();
-  if (in.bad()) throw InputError(path, "", "cannot read " + what + ": " + std::strerror(errno));
-  return text.str();
+  return ReadWholeFile(path, what, kMaxTextFileBytes);
 }
 
 }  // namespace yaml

@@ -6,6 +6,7 @@
 
 #include <yaml-cpp/yaml.h>
 
+#include <cstddef>
 #include <map>
 #include <optional>
 #include <string>
@@ -77,7 +78,12 @@ double NumberOr(const Reporter& reporter, const CheckedMap& map, const std::stri
 // `what` names the kind of file in messages ("robot file").
 Field ParseSingleDocument(const Reporter& reporter, const std::string& text, const std::string& what);
 
-// The whole file; InputError if it cannot be read.
+// A robot file or config is kilobytes: a file larger than this is not one (a data file, a
+// device), refused before it is read on.
+inline constexpr std::size_t kMaxTextFileBytes = 1 << 20;
+
+// The whole file (core/input_file.h: a FIFO without a writer or a device refused, not waited on
+// or read forever); InputError if it cannot be read or is larger than kMaxTextFileBytes.
 std::string ReadTextFile(const std::string& path, const std::string& what);
 
 }  // namespace yaml

@@ -1671,6 +1671,7 @@ DiagnoseData ReadDiagnoseData(const RobotDescription& robot, const std::string& 
     }
   }
   RecordingSource commands(log_path);
+  if (progress) commands.set_on_drop([&](const std::string& note) { progress("left out: " + note); });
   SubscribeDriveCommands(&commands, robot, [&](const DriveCommand& c) { out.commands.push_back(c); });
   commands.HandleAll();
   std::stable_sort(out.commands.begin(), out.commands.end(),

@@ -74,7 +74,7 @@ LogSummary SummarizeLog(const std::string& path) {
       ch.type = stamp->type;
       if (!stamp->decoded)
         throw InputError(path, "event " + std::to_string(event.event_number) + " at byte " +
-                                   std::to_string(event.offset) + " (" + event.channel + ")",
+                                   std::to_string(event.offset) + " (" + PrintableChannel(event.channel) + ")",
                          std::string("does not decode as ") + stamp->type + ": " + stamp->why);
       utime = stamp->utime;
     }
@@ -88,6 +88,7 @@ LogSummary SummarizeLog(const std::string& path) {
     ch.last_utime = ch.count == 0 ? utime : std::max(ch.last_utime, utime);
     ++ch.count;
   }
+  summary.skipped = reader.skips();
   for (auto& [name, ch] : summary.channels)
     if (ch.count > 1 && ch.last_utime > ch.first_utime)
       ch.rate_hz = (ch.count - 1) / ((ch.last_utime - ch.first_utime) * 1e-6);

@@ -30,7 +30,10 @@ void MessageSource::Finish() {
   for (const auto& flush : finishers_) flush();
 }
 
-RecordingSource::RecordingSource(const std::string& path, Mode mode) : reader_(path), mode_(mode) {}
+RecordingSource::RecordingSource(const std::string& path, Mode mode) : reader_(path), mode_(mode) {
+  // A stretch the reader skipped (a torn event) is data the result lacks: said like a dropped message.
+  reader_.set_on_skip([this](const LogSkip& skip) { Drop(reader_.path(), skip.Describe()); });
+}
 
 void RecordingSource::SubscribeRaw(const std::string& channel, RawHandler handler) {
   handlers_[channel].push_back(std::move(handler));
@@ -52,27 +55,56 @@ bool RecordingSource::HandleNext(int) {
 }
 
 std::string RecordingSource::place() const {
-  return "event " + std::to_string(event_.event_number) + " (" + event_.channel + ")";
+  return "event " + std::to_string(event_.event_number) + " (" + PrintableChannel(event_.channel) + ")";
 }
+
+namespace {
+
+// A stream's converted messages through its gate (core/stamp_gate.h) to `handler`: what the gate
+// drops goes to the source's Drop, what it holds at the end is passed on at the source's Finish.
+template <typename T, typename Handler>
+std::function<void(T, const std::string&)> Gated(MessageSource* source, std::shared_ptr<StampGate<T>> gate,
+                                                 Handler handler) {
+  auto shared_handler = std::make_shared<Handler>(std::move(handler));
+  source->AtFinish([gate, shared_handler]() {
+    for (T& item : gate->Finish()) (*shared_handler)(std::move(item));
+  });
+  return [source, gate, shared_handler](T item, const std::string& origin) {
+    // Beyond 2^53 us (the year 2255) a time is no clock reading and loses precision as the double
+    // every consumer computes with (a scan stamped INT64_MAX).
+    constexpr int64_t kMaxStamp = int64_t(1) << 53;
+    if (item.utime > kMaxStamp || item.utime < -kMaxStamp)
+      throw InputError(source->file(), source->place(),
+                       "utime " + std::to_string(item.utime) + " us is beyond +-2^53 us (the year 2255): not a clock reading");
+    for (T& passed : gate->Add(std::move(item), origin)) (*shared_handler)(std::move(passed));
+  };
+}
+
+template <typename T, typename Handler>
+std::function<void(T, const std::string&)> Gated(MessageSource* source, Handler handler) {
+  auto gate = std::make_shared<StampGate<T>>(
+      [source](const std::string& origin, const std::string& problem) { source->Drop(origin, problem); });
+  return Gated<T>(source, std::move(gate), std::move(handler));
+}
+
+}  // namespace
 
 void SubscribeWheels(MessageSource* source, const RobotDescription& robot,
                      std::function<void(const WheelSample&)> handler) {
   auto gate = std::make_shared<WheelSampleGate>(
       robot, [source](const std::string& origin, const std::string& problem) { source->Drop(origin, problem); });
-  auto shared_handler = std::make_shared<std::function<void(const WheelSample&)>>(std::move(handler));
+  auto gated = Gated<WheelSample>(source, std::shared_ptr<StampGate<WheelSample>>(gate), std::move(handler));
   source->Subscribe<agvcal::wheel_state_t>(
-      kWheelsChannel, [robot, gate, shared_handler](const agvcal::wheel_state_t& m, const std::string& origin) {
-        for (const WheelSample& s : gate->Add(WheelSampleFromMessage(m, robot, origin), origin)) (*shared_handler)(s);
+      kWheelsChannel, [robot, gated](const agvcal::wheel_state_t& m, const std::string& origin) {
+        gated(WheelSampleFromMessage(m, robot, origin), origin);
       });
-  source->AtFinish([gate, shared_handler]() {
-    for (const WheelSample& s : gate->Finish()) (*shared_handler)(s);
-  });
 }
 
 void SubscribeScans(MessageSource* source, const std::string& channel, std::function<void(LaserScan)> handler) {
+  auto gated = Gated<LaserScan>(source, std::move(handler));
   source->Subscribe<agvcal::laser_scan_t>(
-      channel, [handler = std::move(handler)](const agvcal::laser_scan_t& m, const std::string& origin) {
-        handler(LaserScanFromMessage(m, origin));
+      channel, [gated](const agvcal::laser_scan_t& m, const std::string& origin) {
+        gated(LaserScanFromMessage(m, origin), origin);
       });
 }
 
@@ -85,34 +117,39 @@ void SubscribeScanMatches(MessageSource* source, std::function<void(const Sensor
 
 void SubscribePoses(MessageSource* source, const std::string& channel,
                     std::function<void(const StampedPose&)> handler) {
+  auto gated = Gated<StampedPose>(source, std::move(handler));
   source->Subscribe<agvcal::pose2d_t>(
-      channel, [handler = std::move(handler)](const agvcal::pose2d_t& m, const std::string&) {
-        handler(PoseFromMessage(m));
-      });
+      channel, [gated](const agvcal::pose2d_t& m, const std::string& origin) { gated(PoseFromMessage(m), origin); });
 }
 
 void SubscribeImu(MessageSource* source, const std::string& channel, std::function<void(const ImuSample&)> handler) {
+  auto gated = Gated<ImuSample>(source, std::move(handler));
   source->Subscribe<agvcal::imu_t>(
-      channel, [handler = std::move(handler)](const agvcal::imu_t& m, const std::string& origin) {
-        handler(ImuSampleFromMessage(m, origin));
+      channel, [gated](const agvcal::imu_t& m, const std::string& origin) {
+        gated(ImuSampleFromMessage(m, origin), origin);
       });
 }
 
 void SubscribeDriveCommands(MessageSource* source, const RobotDescription& robot,
                             std::function<void(const DriveCommand&)> handler) {
+  auto gated = Gated<DriveCommand>(source, std::move(handler));
   source->Subscribe<agvcal::drive_command_t>(
-      kDriveCmdChannel,
-      [robot, handler = std::move(handler)](const agvcal::drive_command_t& m, const std::string& origin) {
-        handler(FromMessage(m, robot, origin));
+      kDriveCmdChannel, [source, robot, gated](const agvcal::drive_command_t& m, const std::string& origin) {
+        DriveCommand command = FromMessage(m, robot, origin);
+        const std::string problem = DriveCommandProblem(command, robot);
+        if (!problem.empty()) {
+          source->Drop(origin, problem);
+          return;
+        }
+        gated(std::move(command), origin);
       });
 }
 
 void SubscribeClouds(MessageSource* source, const std::string& channel,
                      std::function<void(const PointCloud&)> handler) {
+  auto gated = Gated<PointCloud>(source, std::move(handler));
   source->Subscribe<agvcal::point_cloud_t>(
-      channel, [handler = std::move(handler)](const agvcal::point_cloud_t& m, const std::string&) {
-        handler(CloudFromMessage(m));
-      });
+      channel, [gated](const agvcal::point_cloud_t& m, const std::string& origin) { gated(CloudFromMessage(m), origin); });
 }
 
 void SubscribeMountAngles(MessageSource* source, const std::string& channel,

@@ -2,8 +2,10 @@
 
 #include <algorithm>
 #include <cmath>
+#include <utility>
 
 #include "calib/core/errors.h"
+#include "calib/core/units.h"
 
 namespace calib {
 
@@ -214,6 +216,58 @@ DriveCommand FromMessage(const agvcal::drive_command_t& message, const RobotDesc
       cmd.mode = DriveMode::kStop;
   }
   return cmd;
+}
+
+namespace {
+
+// The robot-file parameter holding `role`'s steering offset (tricycle: steer_offset; dual steer:
+// a1_steer_offset, a2 has none): 0 for a role without one.
+double SteerOffset(const RobotDescription& robot, const std::string& role) {
+  for (const std::string& name : {role + "_steer_offset", std::string("steer_offset")}) {
+    const auto it = robot.params.find(name);
+    if (it != robot.params.end()) return it->second;
+  }
+  return 0.0;
+}
+
+}  // namespace
+
+std::string DriveCommandProblem(const DriveCommand& command, const RobotDescription& robot) {
+  const double f = kCommandLimitFactor;
+  const Limits& limits = robot.limits;
+  if (!std::isfinite(command.timeout_s)) return Formatted("timeout %g s is not finite: dropped", command.timeout_s);
+  if (command.mode == DriveMode::kTwist) {
+    const Twist2& t = command.twist;
+    for (const auto& [name, value] : {std::pair<const char*, double>{"vx", t.vx}, {"vy", t.vy}}) {
+      if (!(std::abs(value) <= f * limits.max_speed))
+        return Formatted("twist %s = %g m/s, more than %g m/s (%g x limits.max_speed): dropped", name, value,
+                         f * limits.max_speed, f);
+    }
+    if (!(std::abs(t.omega) <= f * limits.max_omega))
+      return Formatted("twist omega = %g rad/s, more than %g rad/s (%g x limits.max_omega): dropped", t.omega,
+                       f * limits.max_omega, f);
+  }
+  if (command.mode != DriveMode::kWheels) return "";
+  const std::vector<std::string>& roles = WheelRoles(robot.drive);
+  const bool steered = robot.drive != DriveType::kDifferential;
+  const double kPi = 3.14159265358979323846;
+  for (std::size_t i = 0; i < roles.size() && i < command.wheels.speed.size(); ++i) {
+    const std::string& name = robot.wheel_name(roles[i]);
+    const double max_rate = f * limits.max_speed / robot.param(RadiusParamName(roles[i]));
+    const double speed = command.wheels.speed[i];
+    if (!(std::abs(speed) <= max_rate))
+      return Formatted("wheel '%s' speed setpoint %g rad/s, more than %g rad/s (%g x limits.max_speed / radius): "
+                       "dropped",
+                       name.c_str(), speed, max_rate, f);
+    const double steer = command.wheels.steer[i];
+    const double max_steer = std::min(f * limits.max_steer, kPi);
+    const double angle = steer - (steered ? SteerOffset(robot, roles[i]) : 0.0);
+    if (!std::isfinite(steer) || (steered && std::abs(angle) > max_steer))
+      return Formatted("wheel '%s' steering setpoint %g rad, beyond %g rad (%g x limits.max_steer, at most pi): "
+                       "dropped",
+                       name.c_str(), steer, max_steer, f);
+  }
+  return "";
 }
 
 agvcal::scan_match_t ToMessage(const SensorMotion& motion) {

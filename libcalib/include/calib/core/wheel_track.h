@@ -13,6 +13,7 @@
 #include "calib/core/kinematics.h"
 #include "calib/core/robot.h"
 #include "calib/core/se2.h"
+#include "calib/core/stamp_gate.h"
 
 namespace calib {
 
@@ -79,55 +80,20 @@ class WheelTrack {
 };
 
 // Keeps physically impossible wheel samples out of every consumer (solve, diagnose, recal, the
-// live processes all take WHEELS through io's SubscribeWheels, which applies this):
-//   - a wheel position that moves more than `speed_factor` times the robot file's
-//     limits.max_speed / the wheel's radius allows over the time since the last sample
-//     passed (at least the usual sample spacing) is dropped: a flipped bit, not a motion;
-//   - a stamp at or before the last passed one is dropped (out of order, repeated);
-//   - a stamp more than `stamp_gap_spacings` usual spacings (and `min_stamp_gap_s`) after
-//     the last passed one is held until the next sample shows whether the gap is real
-//     (the next one comes later still) or the stamp alone is wrong (the next one falls
-//     before it: the held one is dropped, not every sample after it).
-// Clean data pass unchanged and in order; only a sample after a long gap waits for its
-// successor (Finish passes one still held at the end).
+// live processes all take WHEELS through io's SubscribeWheels, which applies this): the stamp
+// gate of every stream (core/stamp_gate.h: out of order dropped, a lone stamp far ahead dropped
+// alone) and, of the wheels' own, a wheel position that moves more than `speed_factor` times
+// the robot file's limits.max_speed / the wheel's radius allows over the time since the last
+// sample passed (at least the usual sample spacing): a flipped bit, not a motion.
 struct WheelGateOptions {
   double speed_factor = 10.0;
   double stamp_gap_spacings = 50.0;
   double min_stamp_gap_s = 0.5;
 };
 
-class WheelSampleGate {
+class WheelSampleGate : public StampGate<WheelSample> {
  public:
-  // `origin` names the sample in a drop's message ("run.log: event 12 (WHEELS)").
-  using DropHandler = std::function<void(const std::string& origin, const std::string& problem)>;
-
   WheelSampleGate(const RobotDescription& robot, DropHandler on_drop, WheelGateOptions options = {});
-
-  // The next sample in arrival order; returns those to pass on now, in order.
-  std::vector<WheelSample> Add(const WheelSample& sample, const std::string& origin);
-  // End of data: the sample still held, if any.
-  std::vector<WheelSample> Finish();
-  int64_t dropped() const { return dropped_; }
-
- private:
-  struct Pending {
-    WheelSample sample;
-    std::string origin;
-  };
-  // Checks `sample` against the last passed one; passes, holds or drops it.
-  void Take(const WheelSample& sample, const std::string& origin, std::vector<WheelSample>* out);
-  void Pass(const WheelSample& sample, std::vector<WheelSample>* out);
-  void Drop(const std::string& origin, const std::string& problem);
-  double Spacing() const;  // median of the recent sample intervals, s
-
-  std::vector<std::string> names_;      // wheel names, role order
-  std::vector<double> max_rate_;        // rad/s per role: limits.max_speed / radius
-  DropHandler on_drop_;
-  WheelGateOptions options_;
-  std::optional<WheelSample> last_;
-  std::optional<Pending> held_;
-  std::deque<double> intervals_;        // s, the last few between passed samples
-  int64_t dropped_ = 0;
 };
 
 }  // namespace calib

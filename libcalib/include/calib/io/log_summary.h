@@ -8,6 +8,9 @@
 #include <map>
 #include <optional>
 #include <string>
+#include <vector>
+
+#include "calib/io/recording.h"
 
 namespace calib {
 
@@ -23,6 +26,7 @@ struct ChannelSummary {
 struct LogSummary {
   std::map<std::string, ChannelSummary> channels;
   int64_t events = 0;
+  std::vector<LogSkip> skipped;  // stretches the reader skipped (io/recording.h: torn events)
 };
 
 // A message's type and robot-clock utime, for the channels of spec/messages.md and

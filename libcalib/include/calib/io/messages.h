@@ -95,6 +95,15 @@ agvcal::drive_command_t ToMessage(const DriveCommand& command, const RobotDescri
 DriveCommand FromMessage(const agvcal::drive_command_t& message, const RobotDescription& robot,
                          const std::string& origin);
 
+// Why a converted command cannot have been meant for this robot, or "" when it can: a setpoint
+// or timeout that is not finite, a speed more than kCommandLimitFactor times the robot file's
+// limits allow (limits.max_speed, / the wheel's radius for a wheel speed; limits.max_omega), a
+// true steering angle beyond kCommandLimitFactor x limits.max_steer (at most pi). A command the
+// robot would clamp passes; a flipped bit or a driver's NaN does not. SubscribeDriveCommands
+// drops such a command and names it (as the wheel gate does a wheel sample).
+inline constexpr double kCommandLimitFactor = 10.0;
+std::string DriveCommandProblem(const DriveCommand& command, const RobotDescription& robot);
+
 // A scan-matcher result (channel SCAN_MATCH) and back. FromMessage throws
 // InputError (`origin` names the source) for a non-finite number or
 // utime_end <= utime_start.
