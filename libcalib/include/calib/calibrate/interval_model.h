@@ -139,6 +139,13 @@ class IntervalCost {
     e[2] = measured[2] - z.theta - T(turns * 2.0 * M_PI);
   }
 
+  // The same at the values of the blocks.
+  Eigen::Vector3d ErrorAt(const double* params, const double* mount, const double* extra) const {
+    double e[3];
+    Error(params, mount, extra, e);
+    return {e[0], e[1], e[2]};
+  }
+
   // m as measured; a model that corrects it hides this.
   template <typename T>
   void Measured(const T* /*extra*/, T* measured) const {
