@@ -34,8 +34,8 @@ struct Series {
 
 // Minimises f over [lo, hi]: a grid first, then golden section between the grid's best point's
 // neighbours. Golden section alone assumes one minimum; a rate limit's cost is flat above every
-// commanded rate, and from there the section walked to the top of the range past a 0.62 rad/s
-// limit on a forklift commanded up to 1.13 rad/s. Ties go to the higher value (the null side of
+// commanded rate, and from there the section walks to the top of the range past a limit well
+// below the commanded rates. Ties go to the higher value (the null side of
 // the rate limit: a limit no command reaches changes nothing).
 double GridGoldenMin(const std::function<double(double)>& f, double lo, double hi) {
   constexpr int kGrid = 40;
