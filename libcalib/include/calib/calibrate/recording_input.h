@@ -91,9 +91,9 @@ struct SecondPassInput {
 // result until the offset found is the one the scans were matched at (within
 // kDeskewedAgreeSigmas of its sigma), at most kMaxDeskewedPasses times: which scans are matched
 // (the keyframes) follows the wheel motion predicted between their stamps, so the first pass's
-// offset, itself matched on the recorded stamps, chose them, and on the Lego robot's 4 Hz data
-// that moved the answer by up to 12 ms (a sigma) with every scan stamp shifted (issue 16); the
-// scans matched at the offset they give do not depend on the stamps' shift. The live solver runs
+// offset, itself matched on the recorded stamps, chose them, and on slow scan streams that moved
+// the answer by up to a sigma with every scan stamp shifted (docs/mismatch.md); the scans matched
+// at the offset they give do not depend on the stamps' shift. The live solver runs
 // it on the group's recording at its final solve (docs/live.md), so `log_path` may still be being
 // written: it is read to its last complete event. `read`, if given, receives what it read.
 inline constexpr int kMaxDeskewedPasses = 4;
