@@ -177,7 +177,7 @@ TEST(Calibration, AFitThatDoesNotConvergeIsReportedAsSuch) {
   limited.max_iterations = 1;
   const CalibrationResult r = Calibrate(start, data.wheels(), data.motions(), MotionSource::kPose, limited, "sim");
   ASSERT_EQ(r.warnings.size(), 1u);
-  EXPECT_NE(r.warnings[0].find("did not converge"), std::string::npos) << r.warnings[0];
+  EXPECT_NE(r.warnings[0].find("stopped short of convergence"), std::string::npos) << r.warnings[0];
   const nlohmann::json json = nlohmann::json::parse(CalibrationResultJson(r));
   ASSERT_TRUE(json.contains("warnings"));
   EXPECT_EQ(json["warnings"][0].get<std::string>(), r.warnings[0]);

@@ -236,7 +236,7 @@ TEST(Diagnose, FitsThatDoNotConvergeAreReportedAsSuch) {
   limited.max_iterations = 1;
   const DiagnoseReport r = Diagnose(config.robot, data, limited, log.path());
   ASSERT_FALSE(r.warnings.empty());
-  EXPECT_NE(r.warnings[0].find("did not converge"), std::string::npos) << r.warnings[0];
+  EXPECT_NE(r.warnings[0].find("stopped short of convergence"), std::string::npos) << r.warnings[0];
   EXPECT_TRUE(nlohmann::json::parse(DiagnoseReportJson(r)).contains("warnings"));
   EXPECT_NE(DiagnoseSummaryText(r).find("warning: the fit of"), std::string::npos);
 

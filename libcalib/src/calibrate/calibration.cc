@@ -331,7 +331,7 @@ State FirstEstimate(const RobotDescription& robot, const State& nominal,
 
 // 2. Robust fit with a scale from the residuals at the start, then outliers, then the plain
 // maximum-likelihood refit on the inliers. Returns the residuals' robust scale; `not_converged`
-// gets why the last refit, the one reported, stopped short of convergence ("" when it did not).
+// gets why the last refit, the one reported, stopped short of convergence ("" when it converged).
 double RobustFit(std::vector<Interval>& intervals, int num_params, const CalibrationOptions& options,
                  State* state, std::string* not_converged) {
   auto robust_scale = [&]() {
@@ -548,7 +548,7 @@ struct BoundedFit {
   State nominal, state;
   double scale = 1.0;               // the residuals' robust scale
   bool offset_at_bound = false;     // the search's or the fit's offset at the bound
-  std::string not_converged;        // why the fit stopped short of convergence ("" when it did not)
+  std::string not_converged;        // why the fit stopped short of convergence ("" when it converged)
 };
 
 // With the offset: the global search first, then the intervals the encoders cover with room for
@@ -609,7 +609,7 @@ CalibrationResult Conclude(const RobotDescription& robot, const WheelTrack& whee
   const int num_params = static_cast<int>(result.param_names.size());
   const bool with_offset = options.estimate_time_offset;
   if (!fit.not_converged.empty())
-    result.warnings.push_back("the fit did not converge: " + fit.not_converged + "; the values are its last");
+    result.warnings.push_back("the fit " + fit.not_converged + ": the values are its last");
   const int dim = num_params + 3 + (with_offset ? 1 : 0);
   SummarizeResiduals(fit.intervals, fit.state, fit.nominal, fit.scale, fit.num_fit, dim, &result);
   const std::vector<double> sigma =

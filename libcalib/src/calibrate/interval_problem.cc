@@ -59,7 +59,7 @@ ceres::Solver::Summary IntervalProblem::Solve(const IntervalSolveSettings& setti
 
 std::string NotConverged(const ceres::Solver::Summary& summary) {
   if (summary.termination_type == ceres::CONVERGENCE || summary.termination_type == ceres::USER_SUCCESS) return "";
-  return "the solver stopped short of convergence (" + summary.message + ")";
+  return "stopped short of convergence (" + summary.message + ")";
 }
 
 double Chi2At(const ceres::CostFunction& cost, const double* const* blocks) {

@@ -218,7 +218,7 @@ LookAlikeFit RecordingFits::FitLookAlike(int x, int y) {
 void NoteUnconverged(const std::vector<Candidate>& cands, const std::vector<Fit>& single, const RecordingFits& fits,
                      const Fit& f0, DiagnoseReport* report) {
   auto note = [&](const std::string& what, const Fit& f) {
-    if (!f.not_converged.empty()) report->warnings.push_back("the fit of " + what + " did not converge: " + f.not_converged);
+    if (!f.not_converged.empty()) report->warnings.push_back("the fit of " + what + " " + f.not_converged);
   };
   note("the baseline", f0);
   for (std::size_t j = 0; j < cands.size(); ++j)

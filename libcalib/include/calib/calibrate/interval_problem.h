@@ -57,7 +57,7 @@ class IntervalProblem {
   int num_extra_;
 };
 
-// "" when the solve converged; otherwise why it stopped, in words.
+// "" when the solve converged; otherwise "stopped short of convergence (Ceres' reason)".
 std::string NotConverged(const ceres::Solver::Summary& summary);
 
 // The whitened chi-square |r|^2 of one interval's residual at the parameter blocks `blocks`.
