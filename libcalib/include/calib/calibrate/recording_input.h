@@ -107,7 +107,7 @@ CalibrationResult SolveAgainDeskewed(const RobotDescription& robot, const std::s
 // second time, de-skewed with the calibrated model on the wheel clock (the offset found), and
 // calibrated again, as `agvcal diagnose` does: the matcher places a scan at its mean beam time,
 // so the nominal de-skew model's error over that lead (its relative turn-rate error times the
-// lead) otherwise reads as a time offset, +0.3 ms on the simulated differential drive. The second
+// lead) otherwise reads as a small time offset (docs/calibration.md). The second
 // pass is SolveAgainDeskewed, which the live agvcal-solver --time-offset runs too.
 CalibrationResult SolveLog(const RobotDescription& robot, const std::string& log_path,
                            const SolveLogOptions& options);
