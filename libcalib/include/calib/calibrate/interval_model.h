@@ -3,6 +3,7 @@
 // the interval between two sensor observations, carried through the sensor's mount and compared
 // with the sensor's measured motion. The calibration (calibration.cc) fits it with the drive
 // kinematics alone; the diagnosis (diagnose/diagnose_model.h) extends it with the effect terms.
+// Both build and solve their least-squares problem through interval_problem.h.
 //
 // Frames. b_k is the robot's body frame (reference point, x forward) at the interval's start
 // stamp t0 and end stamp t1 = t0 + D; s_k = b_k ∘ l the sensor's frame, with the mount
