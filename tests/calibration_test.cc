@@ -8,9 +8,12 @@
 #include <cstdio>
 #include <string>
 
+#include <nlohmann/json.hpp>
+
 #include "calib/calibrate/calibration.h"
 #include "calib/calibrate/calibration_data.h"
 #include "calib/calibrate/heldout.h"
+#include "calib/calibrate/result_files.h"
 #include "calib/core/errors.h"
 #include "calib/core/statistics.h"
 #include "calib/io/messages.h"
@@ -161,6 +164,29 @@ TEST(Calibration, StraightOnlyIsRefusedNamingTheParameters) {
   }
 }
 
+// A fit that stops at its iteration limit says so. One iteration from drive parameters a tenth off
+// cannot reach the optimum: the result carries a warning (RESULT.json `warnings`). With the
+// default limit the same fit converges and carries none.
+TEST(Calibration, AFitThatDoesNotConvergeIsReportedAsSuch) {
+  const SimConfig config = PoseSim("forklift", 5);
+  const CalibrationData data = Record(config, "default");
+  RobotDescription start = config.robot;
+  for (auto& [name, value] : start.params)
+    if (name.find("offset") == std::string::npos) value *= 1.1;
+  CalibrationOptions limited;
+  limited.max_iterations = 1;
+  const CalibrationResult r = Calibrate(start, data.wheels(), data.motions(), MotionSource::kPose, limited, "sim");
+  ASSERT_EQ(r.warnings.size(), 1u);
+  EXPECT_NE(r.warnings[0].find("stopped short of convergence"), std::string::npos) << r.warnings[0];
+  const nlohmann::json json = nlohmann::json::parse(CalibrationResultJson(r));
+  ASSERT_TRUE(json.contains("warnings"));
+  EXPECT_EQ(json["warnings"][0].get<std::string>(), r.warnings[0]);
+
+  const CalibrationResult converged =
+      Calibrate(start, data.wheels(), data.motions(), MotionSource::kPose, CalibrationOptions{}, "sim");
+  EXPECT_TRUE(converged.warnings.empty()) << converged.warnings[0];
+  EXPECT_FALSE(nlohmann::json::parse(CalibrationResultJson(converged)).contains("warnings"));
+}
 
 // `motions` with every stamp `shift_s` later: a sensor-to-wheel time offset that much larger.
 std::vector<SensorMotion> Shifted(const std::vector<SensorMotion>& motions, double shift_s) {

@@ -225,6 +225,26 @@ TEST(Diagnose, OffsetBeyondTheFirstSearchBoundIsFound) {
   EXPECT_EQ(solved.time_offset_bound_s, 1.0);
 }
 
+// A fit that stops at its iteration limit says so: with one iteration per fit the diagnosis's fits
+// cannot converge, and the report names them (REPORT.json `warnings`, summary.txt); with the
+// default limit there is none.
+TEST(Diagnose, FitsThatDoNotConvergeAreReportedAsSuch) {
+  const SimConfig config = Sim("diff_robot", 4);
+  const SimLog log(config, "default");
+  const DiagnoseData data = ReadDiagnoseData(config.robot, log.path(), nullptr);
+  DiagnoseOptions limited;
+  limited.max_iterations = 1;
+  const DiagnoseReport r = Diagnose(config.robot, data, limited, log.path());
+  ASSERT_FALSE(r.warnings.empty());
+  EXPECT_NE(r.warnings[0].find("stopped short of convergence"), std::string::npos) << r.warnings[0];
+  EXPECT_TRUE(nlohmann::json::parse(DiagnoseReportJson(r)).contains("warnings"));
+  EXPECT_NE(DiagnoseSummaryText(r).find("warning: the fit of"), std::string::npos);
+
+  const DiagnoseReport converged = Diagnose(config.robot, data, DiagnoseOptions{}, log.path());
+  EXPECT_TRUE(converged.warnings.empty()) << converged.warnings[0];
+  EXPECT_FALSE(nlohmann::json::parse(DiagnoseReportJson(converged)).contains("warnings"));
+}
+
 TEST(Diagnose, CleanForkliftHasNoEffect) {
   const DiagnoseReport r = DiagnoseSim(Sim("forklift", 11));
   EXPECT_EQ(r.verdict, "no_significant_effect") << DiagnoseSummaryText(r);

@@ -90,6 +90,7 @@ int Diagnose(int argc, char** argv) {
   if (!args.Has("--quiet")) options.progress = [](const std::string& line) { std::cerr << line << "\n"; };
 
   const calib::DiagnoseReport report = calib::DiagnoseLog(robot, log_path, options);
+  for (const std::string& warning : report.warnings) std::cerr << "agvcal: warning: " << warning << "\n";
   std::cout << calib::DiagnoseSummaryText(report);
 
   std::string json = calib::DiagnoseReportJson(report);

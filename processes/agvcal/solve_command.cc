@@ -114,6 +114,7 @@ int Solve(int argc, char** argv) {
   const calib::CalibrationResult result = calib::SolveLog(robot, log_path, options);
   // Said even with --quiet: the result stands on less than the recording holds.
   for (const std::string& note : result.input_notes) std::cerr << "agvcal: left out: " << note << "\n";
+  for (const std::string& warning : result.warnings) std::cerr << "agvcal: warning: " << warning << "\n";
   if (result.input_dropped > 0)
     std::cerr << "agvcal: " << result.input_dropped << " message(s) of " << log_path
               << " left out of the fit (RESULT.json input.notes)\n";

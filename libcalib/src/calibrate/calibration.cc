@@ -14,6 +14,7 @@
 #include "calib/calibrate/closed_form.h"
 #include "calib/calibrate/heldout.h"
 #include "calib/calibrate/interval_model.h"
+#include "calib/calibrate/interval_problem.h"
 #include "calib/calibrate/time_offset_search.h"
 #include "calib/core/errors.h"
 #include "calib/core/statistics.h"
@@ -31,12 +32,9 @@ struct State {
   double offset[1] = {0};
 };
 
-struct Interval {
-  const SensorMotion* motion;
-  std::unique_ptr<DriveIntervalCost> cost;
+// An interval with the Ceres cost of its model, sized to the drive's parameters.
+struct Interval : FittedInterval<DriveIntervalCost> {
   std::unique_ptr<ceres::CostFunction> function;
-  bool heldout = false;
-  bool outlier = false;
 };
 
 template <int N>
@@ -46,49 +44,34 @@ ceres::CostFunction* MakeFunction(DriveIntervalCost* cost) {
 
 // Whitened residual chi-square of an interval at `state`.
 double Chi2(const Interval& interval, const State& state) {
-  double r[3];
   const double* blocks[3] = {state.params, state.mount, state.offset};
-  interval.function->Evaluate(blocks, r, nullptr);
-  return r[0] * r[0] + r[1] * r[1] + r[2] * r[2];
+  return Chi2At(*interval.function, blocks);
 }
 
 Eigen::Vector3d Error(const Interval& interval, const State& state) {
-  double e[3];
-  interval.cost->Error(state.params, state.mount, state.offset, e);
-  return {e[0], e[1], e[2]};
+  return interval.cost->ErrorAt(state.params, state.mount, state.offset);
 }
 
-// Least squares over the intervals selected, with the residuals divided by `scale`.
-void Solve(std::vector<Interval>& intervals, State* state, int num_params, double scale, bool robust, bool estimate_offset, double max_offset) {
-  ceres::Problem::Options problem_options;
-  problem_options.cost_function_ownership = ceres::DO_NOT_TAKE_OWNERSHIP;
-  problem_options.loss_function_ownership = ceres::TAKE_OWNERSHIP;
-  ceres::Problem problem(problem_options);
-  problem.AddParameterBlock(state->params, num_params);
-  problem.AddParameterBlock(state->mount, 3);
-  problem.AddParameterBlock(state->offset, 1);
-  for (Interval& it : intervals) {
-    if (it.heldout || it.outlier) continue;
+// Least squares over the fitted intervals, with the residuals divided by `scale` (robust: with
+// a Cauchy loss at 3 `scale`), from and into `state`. Returns why it did not converge ("" when it did).
+std::string Solve(const std::vector<Interval>& intervals, State* state, int num_params, double scale, bool robust,
+                  const CalibrationOptions& options) {
+  IntervalProblem problem(state->params, num_params, state->mount, state->offset, 1);
+  for (const Interval& it : intervals) {
+    if (!it.fitted()) continue;
     // The residual divided by `scale` is a chi-square cost scaled by 1/scale^2.
-    ceres::LossFunction* loss = new ceres::ScaledLoss(
-        robust ? new ceres::CauchyLoss(3.0 * scale) : nullptr, 1.0 / (scale * scale),
-        ceres::TAKE_OWNERSHIP);
-    problem.AddResidualBlock(it.function.get(), loss, state->params, state->mount, state->offset);
+    problem.AddInterval(it.function.get(),
+                        new ceres::ScaledLoss(robust ? new ceres::CauchyLoss(3.0 * scale) : nullptr,
+                                              1.0 / (scale * scale), ceres::TAKE_OWNERSHIP));
   }
-  if (estimate_offset) {
-    problem.SetParameterLowerBound(state->offset, 0, -max_offset);
-    problem.SetParameterUpperBound(state->offset, 0, max_offset);
-  } else {
-    problem.SetParameterBlockConstant(state->offset);
-  }
-  ceres::Solver::Options options;
-  options.linear_solver_type = ceres::DENSE_QR;
-  options.max_num_iterations = 100;
-  options.function_tolerance = 1e-12;
-  options.parameter_tolerance = 1e-12;
-  options.num_threads = 1;  // deterministic sums
-  ceres::Solver::Summary summary;
-  ceres::Solve(options, &problem, &summary);
+  if (options.estimate_time_offset)
+    problem.BoundExtra(0, -options.max_time_offset_s, options.max_time_offset_s);
+  else
+    problem.HoldExtra({0});
+  IntervalSolveSettings settings;
+  settings.max_iterations = options.max_iterations;
+  settings.tolerance = 1e-12;
+  return NotConverged(problem.Solve(settings));
 }
 
 // Thresholds on one sigma beyond which the recording cannot determine a parameter, and the
@@ -196,7 +179,7 @@ State StateOf(const RobotDescription& robot, MotionSource source) {
 // scan, a pose), so their errors are anti-correlated and M is a small difference of large
 // terms. Summed over the sample's own products (sum s_k s_k' + s_k s_k-1' + s_k-1 s_k') it
 // comes out near zero or negative in some directions by chance, which would claim a parameter
-// known exactly (we saw 10 sigma errors). So the residuals' covariance is modelled instead: one
+// known exactly, and make its errors many sigma. So the residuals' covariance is modelled instead: one
 // 3x3 covariance C0 and one neighbour covariance C1, pooled over the recording after dividing
 // each residual by its local size w_k (the rms over kLocalScaleHalfWidth intervals either side,
 // since the noise grows with the motion), giving
@@ -348,25 +331,24 @@ State FirstEstimate(const RobotDescription& robot, const State& nominal,
 }
 
 // 2. Robust fit with a scale from the residuals at the start, then outliers, then the plain
-// maximum-likelihood refit on the inliers. Returns the residuals' robust scale.
+// maximum-likelihood refit on the inliers. Returns the residuals' robust scale; `not_converged`
+// gets why the last refit, the one reported, stopped short of convergence ("" when it converged).
 double RobustFit(std::vector<Interval>& intervals, int num_params, const CalibrationOptions& options,
-                 State* state) {
+                 State* state, std::string* not_converged) {
   auto robust_scale = [&]() {
     std::vector<double> chi2;
     for (const Interval& it : intervals)
       if (!it.heldout && !it.outlier) chi2.push_back(Chi2(it, *state));
     return std::sqrt(RobustScale2(std::move(chi2)));
   };
-  Solve(intervals, state, num_params, robust_scale(), true, options.estimate_time_offset,
-        options.max_time_offset_s);
+  Solve(intervals, state, num_params, robust_scale(), true, options);
   double scale = 1.0;
   for (int round = 0; round < 2; ++round) {
     scale = robust_scale();
     for (Interval& it : intervals) {
       if (!it.heldout) it.outlier = IsOutlier(Chi2(it, *state), scale * scale, options.outlier_chi2);
     }
-    Solve(intervals, state, num_params, scale, false, options.estimate_time_offset,
-          options.max_time_offset_s);
+    *not_converged = Solve(intervals, state, num_params, scale, false, options);
   }
   return scale;
 }
@@ -537,12 +519,11 @@ void RefuseUndetermined(DriveType drive, const State& nominal, const std::vector
 constexpr double kOffsetRoomS = 0.25;
 
 // The global search's offset (time_offset_search.h) on the first `fit_fraction` of the valid
-// motions, with the robot file's drive parameters. Nothing in it depends on where the offset
-// lies in the range searched (the search's intervals and scales did, and its drive parameters,
-// the closed form's at offset 0), so shifting every sensor stamp moves it by the shift (issue 16:
-// the Lego robot's scans shifted by +-120 ms moved solve's offset by +106 and -101 ms). Searched
-// again with the closed form's parameters at the offset found, it ended further from the truth
-// on the simulated differential drive (185.6 ms for 200 ms, first pass), so it is searched once.
+// motions, with the robot file's drive parameters: nothing in it depends on where the offset lies
+// in the range searched (intervals or scales chosen by the range, or drive parameters from the
+// closed form at offset 0, would), so shifting every sensor stamp moves it by the shift. It is
+// searched once: searched again with the closed form's parameters at the offset found, it ended
+// further from the truth on simulated recordings.
 double SearchedOffset(const RobotDescription& robot, const State& nominal, const WheelTrack& wheels,
                       const std::vector<SensorMotion>& motions, const CalibrationOptions& options) {
   std::vector<SensorMotion> fit;
@@ -554,72 +535,87 @@ double SearchedOffset(const RobotDescription& robot, const State& nominal, const
   return SearchTimeOffset(robot.drive, nominal.params, wheels, fit, options.max_time_offset_s).offset_s;
 }
 
-}  // namespace
+// The time offset (search or fit) within this of its bound lies at the bound: within the reach of
+// the search's fine grid.
+constexpr double kAtBoundS = 0.002;
 
-CalibrationResult Calibrate(const RobotDescription& robot, const WheelTrack& wheels,
-                            const std::vector<SensorMotion>& motions, MotionSource source,
-                            const CalibrationOptions& options, const std::string& origin) {
-  CalibrationResult result;
+// Steps 1 and 2 at the time-offset bound of `options`, kept for the steps after them.
+struct BoundedFit {
+  CalibrationOptions options;  // with the bound it was fitted within
+  CalibrationResult result;    // the closed form and the motions left out, so far
+  std::vector<const SensorMotion*> usable;  // in stamp order; the first num_fit are fitted
+  std::size_t num_fit = 0;
+  std::vector<Interval> intervals;
+  State nominal, state;
+  double scale = 1.0;               // the residuals' robust scale
+  bool offset_at_bound = false;     // the search's or the fit's offset at the bound
+  std::string not_converged;        // why the fit stopped short of convergence ("" when it converged)
+};
+
+// With the offset: the global search first, then the intervals the encoders cover with room for
+// the joint fit around its offset (stamp order), their closed form at that offset and the joint
+// fit from there (global before local: the offset's cost has minima an encoder or scan period
+// apart and a basin as wide as the motion's bandwidth, time_offset_search.h). InputError when too
+// few intervals are left.
+BoundedFit FitWithin(const RobotDescription& robot, const EncoderTrack& track, const WheelTrack& wheels,
+                     const std::vector<SensorMotion>& motions, MotionSource source, const CalibrationOptions& options,
+                     const std::string& origin) {
+  BoundedFit fit;
+  fit.options = options;
+  CalibrationResult& result = fit.result;
   result.drive = robot.drive;
   result.source = source;
   result.param_names = ParamNames(robot.drive);
   const int num_params = static_cast<int>(result.param_names.size());
   const bool with_offset = options.estimate_time_offset;
-
-  // With the offset: the global search first, then the intervals the encoders cover with room
-  // for the joint fit around its offset (stamp order), their closed form at that offset and the
-  // joint fit from there (global before local: the offset's cost has minima an encoder or scan
-  // period apart and a basin as wide as the motion's bandwidth, time_offset_search.h).
-  const State nominal = StateOf(robot, source);
-  const double center_s = with_offset ? SearchedOffset(robot, nominal, wheels, motions, options) : 0.0;
+  fit.nominal = StateOf(robot, source);
+  const double center_s = with_offset ? SearchedOffset(robot, fit.nominal, wheels, motions, options) : 0.0;
   const double center_us = std::round(center_s * 1e6);
   if (with_offset) result.time_offset_bound_s = options.max_time_offset_s;
-  const std::vector<const SensorMotion*> usable =
-      UsableMotions(wheels, motions, center_us, with_offset ? kOffsetRoomS * 1e6 : 0.0, &result.residual);
-  const std::size_t num_fit =
-      static_cast<std::size_t>(std::floor(usable.size() * std::clamp(options.fit_fraction, 0.0, 1.0)));
-  if (num_fit < 20) {
+  fit.usable = UsableMotions(wheels, motions, center_us, with_offset ? kOffsetRoomS * 1e6 : 0.0, &result.residual);
+  fit.num_fit = static_cast<std::size_t>(std::floor(fit.usable.size() * std::clamp(options.fit_fraction, 0.0, 1.0)));
+  if (fit.num_fit < 20) {
     throw InputError(origin, "sensor motions",
-                     "only " + std::to_string(num_fit) + " usable intervals with encoder data (" +
+                     "only " + std::to_string(fit.num_fit) + " usable intervals with encoder data (" +
                          std::to_string(motions.size()) + " motions, " +
                          std::to_string(result.residual.degenerate) + " degenerate, " +
                          std::to_string(result.residual.invalid) +
                          " failed or outside the encoder data); at least 20 are needed");
   }
-
-  const EncoderTrack track(robot.drive, wheels);
   // Each interval's encoder samples reach over every offset the fit may take.
   const double margin_us = with_offset ? (options.max_time_offset_s + kOffsetRoomS) * 1e6 : 0.0;
-  std::vector<Interval> intervals;
   std::vector<MotionInterval> closed_form_input;
-  for (std::size_t k = 0; k < usable.size(); ++k) {
-    const SensorMotion& m = *usable[k];
-    intervals.push_back(MakeInterval(track, num_params, m, margin_us, k >= num_fit));
-    if (k < num_fit) {
+  for (std::size_t k = 0; k < fit.usable.size(); ++k) {
+    const SensorMotion& m = *fit.usable[k];
+    fit.intervals.push_back(MakeInterval(track, num_params, m, margin_us, k >= fit.num_fit));
+    if (k < fit.num_fit) {
       closed_form_input.push_back({&wheels, m.utime_start - int64_t(center_us), m.utime_end - int64_t(center_us),
                                    m.delta});
     }
   }
-  State state = FirstEstimate(robot, nominal, closed_form_input, &result);
-  state.offset[0] = center_s;
-  const double search_offset = state.offset[0];
-  const double scale = RobustFit(intervals, num_params, options, &state);
-  // The search's or the fit's offset at the bound (within the fine grid's reach): search and
-  // fit again over twice the range. A recording too short for the wider margin keeps the bound.
-  constexpr double kAtBoundS = 0.002;
-  if (with_offset && options.max_time_offset_s < kWidestTimeOffsetS &&
-      std::max(std::abs(search_offset), std::abs(state.offset[0])) >= options.max_time_offset_s - kAtBoundS) {
-    CalibrationOptions wider = options;
-    wider.max_time_offset_s = std::min(2.0 * options.max_time_offset_s, kWidestTimeOffsetS);
-    try {
-      return Calibrate(robot, wheels, motions, source, wider, origin);
-    } catch (const InputError&) {
-    }
-  }
+  fit.state = FirstEstimate(robot, fit.nominal, closed_form_input, &result);
+  fit.state.offset[0] = center_s;
+  fit.scale = RobustFit(fit.intervals, num_params, options, &fit.state, &fit.not_converged);
+  fit.offset_at_bound = with_offset && std::max(std::abs(center_s), std::abs(fit.state.offset[0])) >=
+                                           options.max_time_offset_s - kAtBoundS;
+  return fit;
+}
+
+// Steps 3 and 4 on the fit: the residuals, the covariance, what the data cannot determine, and
+// the held-out comparison.
+CalibrationResult Conclude(const RobotDescription& robot, const WheelTrack& wheels, MotionSource source,
+                           const std::string& origin, BoundedFit fit) {
+  CalibrationResult& result = fit.result;
+  const CalibrationOptions& options = fit.options;
+  const int num_params = static_cast<int>(result.param_names.size());
+  const bool with_offset = options.estimate_time_offset;
+  if (!fit.not_converged.empty())
+    result.warnings.push_back("the fit " + fit.not_converged + ": the values are its last");
   const int dim = num_params + 3 + (with_offset ? 1 : 0);
-  SummarizeResiduals(intervals, state, nominal, scale, num_fit, dim, &result);
-  const std::vector<double> sigma = Covariance(InlierScores(intervals, state, num_params, with_offset, scale), &result);
-  SetEstimates(state, nominal, sigma, source, with_offset, &result);
+  SummarizeResiduals(fit.intervals, fit.state, fit.nominal, fit.scale, fit.num_fit, dim, &result);
+  const std::vector<double> sigma =
+      Covariance(InlierScores(fit.intervals, fit.state, num_params, with_offset, fit.scale), &result);
+  SetEstimates(fit.state, fit.nominal, sigma, source, with_offset, &result);
   // A wheel radius fitted at or below zero is no robot's: the readings belong to other roles
   // than the robot file gives them (the cause, not "cannot determine"; no model is made of it).
   for (const std::string& role : WheelRoles(robot.drive)) {
@@ -632,20 +628,46 @@ CalibrationResult Calibrate(const RobotDescription& robot, const WheelTrack& whe
                                  name.c_str(), it->second.value));
     }
   }
-  RefuseUndetermined(robot.drive, nominal, sigma, options.check_observability, origin, &result);
+  RefuseUndetermined(robot.drive, fit.nominal, sigma, options.check_observability, origin, &result);
 
   // 4. Held-out comparison of the nominal and the calibrated model.
-  if (num_fit < intervals.size()) {
-    HeldoutComparison h = CompareHeldout(HeldoutSteps(intervals, nominal), HeldoutSteps(intervals, state),
-                                         CompareMotion(robot.drive, wheels, usable, num_fit),
+  if (fit.num_fit < fit.intervals.size()) {
+    HeldoutComparison h = CompareHeldout(HeldoutSteps(fit.intervals, fit.nominal), HeldoutSteps(fit.intervals, fit.state),
+                                         CompareMotion(robot.drive, wheels, fit.usable, fit.num_fit),
                                          options.heldout_windows);
-    h.intervals = static_cast<int>(intervals.size() - num_fit);
+    h.intervals = static_cast<int>(fit.intervals.size() - fit.num_fit);
     std::vector<SensorMotion> heldout_motions;
-    for (std::size_t k = num_fit; k < usable.size(); ++k) heldout_motions.push_back(*usable[k]);
+    for (std::size_t k = fit.num_fit; k < fit.usable.size(); ++k) heldout_motions.push_back(*fit.usable[k]);
     h.halves = CompareHalves(robot, wheels, heldout_motions, source, options, origin, result);
     result.heldout = h;
   }
-  return result;
+  return std::move(result);
+}
+
+}  // namespace
+
+CalibrationResult Calibrate(const RobotDescription& robot, const WheelTrack& wheels,
+                            const std::vector<SensorMotion>& motions, MotionSource source,
+                            const CalibrationOptions& options, const std::string& origin) {
+  const EncoderTrack track(robot.drive, wheels);
+  BoundedFit fit = FitWithin(robot, track, wheels, motions, source, options, origin);
+  // An offset at its bound may lie beyond it: searched and fitted again over twice the range, up
+  // to kWidestTimeOffsetS. A recording too short for the wider margin keeps the bound it has, and
+  // the result says why.
+  while (fit.offset_at_bound && fit.options.max_time_offset_s < kWidestTimeOffsetS) {
+    CalibrationOptions wider = fit.options;
+    wider.max_time_offset_s = std::min(2.0 * wider.max_time_offset_s, kWidestTimeOffsetS);
+    try {
+      fit = FitWithin(robot, track, wheels, motions, source, wider, origin);
+    } catch (const InputError& e) {
+      std::ostringstream warning;
+      warning << "the time offset lies at its bound (+-" << fit.options.max_time_offset_s
+              << " s) and could not be searched beyond it: " << e.what();
+      fit.result.warnings.push_back(warning.str());
+      break;
+    }
+  }
+  return Conclude(robot, wheels, source, origin, std::move(fit));
 }
 
 OdometryError EvaluateOdometry(const RobotDescription& robot, MotionSource source,

@@ -74,6 +74,7 @@ std::string CalibrationResultJson(const CalibrationResult& r) {
   j["closed_form"] = closed_form;
   if (!r.closed_form_note.empty()) j["closed_form_note"] = r.closed_form_note;
   if (r.input_dropped > 0) j["input"] = {{"dropped", r.input_dropped}, {"notes", r.input_notes}};
+  if (!r.warnings.empty()) j["warnings"] = r.warnings;
   if (r.heldout) {
     j["heldout"] = {{"intervals", r.heldout->intervals},
                     {"window_m", r.heldout->window_m},

@@ -94,7 +94,7 @@ TimeOffsetSearch SearchTimeOffset(DriveType drive, const double* params, const W
     Observed o;
     // Every match counts, also where the wheel data end before the offset's reach (Cumulative::At
     // holds their ends there): a set that depended on the range searched would not move with the
-    // offset, and the minimum would depend on where the offset lies in the range (issue 16).
+    // offset, and the minimum would depend on where the offset lies in the range.
     o.t0 = (m.utime_start - track.utime(0)) * 1e-6;
     o.t1 = (m.utime_end - track.utime(0)) * 1e-6;
     o.turn = m.delta.theta;

@@ -34,8 +34,8 @@ struct Series {
 
 // Minimises f over [lo, hi]: a grid first, then golden section between the grid's best point's
 // neighbours. Golden section alone assumes one minimum; a rate limit's cost is flat above every
-// commanded rate, and from there the section walked to the top of the range past a 0.62 rad/s
-// limit on a forklift commanded up to 1.13 rad/s. Ties go to the higher value (the null side of
+// commanded rate, and from there the section walks to the top of the range past a limit well
+// below the commanded rates. Ties go to the higher value (the null side of
 // the rate limit: a limit no command reaches changes nothing).
 double GridGoldenMin(const std::function<double(double)>& f, double lo, double hi) {
   constexpr int kGrid = 40;
@@ -92,12 +92,10 @@ double Sse(const Layer& L, const std::vector<std::array<double, 2>>& pred, const
 // deviation of those gaps from the period, and at least half their spread (0.1 to 99.9th
 // percentile: a few hiccups in thousands left out). A controller (or simulator) that acts on
 // its own tick takes each command at one of its ticks, so the gaps are whole ticks, mostly one
-// value and now and then the next (24.8 Hz commands on a 5 ms tick: 94 % 40 ms, 6 % 45 ms;
-// 39.7 Hz on 4.2 ms: 0.3 % the longer). Their RMS (1.2 ms; 0.2 ms) says little of the tick,
-// their spread is the tick. Within a tick when the setpoint changes is not known: a ramp
-// toward each command starts from where the previous one stood at the last tick, half a tick
-// behind the continuous ramp, and read as a drive lag of a quarter tick (0.4 to 2.3 ms on eleven
-// simulated recordings without one, ticks of 1.7 to 8.5 ms).
+// value and now and then the next: their RMS, small when the longer gap is rare, says little of
+// the tick; their spread is the tick. Within a tick when the setpoint changes is not known: a
+// ramp toward each command starts from where the previous one stood at the last tick, half a
+// tick behind the continuous ramp, and would read as a drive lag of about a quarter tick.
 double CommandPeriod(const std::vector<DriveCommand>& commands, double* jitter = nullptr) {
   std::vector<int64_t> gaps;
   for (std::size_t c = 1; c < commands.size(); ++c)
@@ -278,8 +276,7 @@ Layer DriveLagLayer(const Series& s, const Track& tr, const std::vector<DriveCom
 // one ramp; its rate is its travel over its time, its first and last steps left out (a ramp
 // starts and ends between command times, so they are partial). The stamps are whole ticks of the
 // controller while the commander ramps on its own clock, so one step's rate is off by up to a
-// tick over the period (1.2 or 0.96 rad/s for 1.0 at 33.7 Hz on a 6.2 ms tick); over a ramp it
-// averages out. Of the ramps' rates, the one at which half the commanded steering travel goes
+// tick over the period; over a ramp it averages out. Of the ramps' rates, the one at which half the commanded steering travel goes
 // faster (weighted by travel: a few slow corrections do not set it). `share`: the part of one
 // step's rate the command stamps' timing resolution leaves uncertain (jitter / period).
 double CommandedSteeringRate(const RobotDescription& robot, const Track& tr, const std::vector<DriveCommand>& commands,
@@ -351,8 +348,8 @@ Layer SteeringRateLimitLayer(const RobotDescription& robot, const Series& s, con
   // command period apart), and each step is taken at the controller's tick: between two takes the
   // steering is seen to move at the commanded rate times the period over the gap, uncertain by
   // the share jitter / period (CommandPeriod). A limit within that share of the commanded rate,
-  // or above it, is not told from the command's own ramp delivered in ticks: on recordings without
-  // one the fit put a "limit" at 0.997-1.013 rad/s (and 1.43) for a commander ramping at 1.0 rad/s.
+  // or above it, is not told from the command's own ramp delivered in ticks: without a limit the
+  // fit puts a "limit" near the commanded rate itself.
   double share = 0;
   const double rate = CommandedSteeringRate(robot, tr, commands, &share);
   L.max_value = rate * (1 - share);
@@ -600,9 +597,9 @@ void DiagnoseActuation(const RobotDescription& robot, const DiagnoseData& data,
   for (const Layer& L : layers) tests.push_back(TestLayer(L, s));
   // Whether the data tell the profiles apart: the gap of the drive layer's log-likelihoods, its
   // samples counted once per correlation time, at the level of the actuation tests. Where the
-  // controller's tick is coarse against the command period (an 8.1 ms step, 32.5 Hz ramped
-  // commands: four steps a ramp) a held setpoint behind a lag of half a command period fits a
-  // ramp about as well, and a drive lag found under the chosen profile alone is that lead.
+  // controller's tick is coarse against the command period (a few ticks a command) a held
+  // setpoint behind a lag of half a command period fits a ramp about as well, and a drive lag
+  // found under the chosen profile alone is that lead.
   const double gap = std::abs(score[0] - score[1]) / std::max(tests[0].tau_int, 1.0);
   const bool told_apart = gap > ChiSquareUpperQuantile(alpha_share / m, 1);
   per_layer << " profiles told apart: " << (told_apart ? "yes" : "no") << ", gap " << gap

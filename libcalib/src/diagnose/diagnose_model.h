@@ -207,8 +207,8 @@ class IntervalModel : public IntervalCost<IntervalModel> {
 
 // The Ceres cost of one interval (IntervalModel) with derivatives over the drive parameters,
 // the mount and the effect terms `free` only: the other effect terms enter as constants and
-// their Jacobian columns are zero. The Jets are sized to the free terms (issue 19: Jets over
-// all 5 + 3 + kNumBeta parameters were 60 % of a dual-steer diagnosis where one term is free).
+// their Jacobian columns are zero. The Jets are sized to the free terms: Jets over all
+// 5 + 3 + kNumBeta parameters would spend most of a diagnosis on derivatives no fit uses.
 // Each Jet component is computed by the same operations whatever the others are, so residuals
 // and the Jacobian's columns equal those of AutoDiffCostFunction over every term to the bit
 // (tests/diagnose_jets_test.cc; it would catch a build whose vector and scalar lanes round

@@ -169,6 +169,7 @@ std::string DiagnoseReportJson(const DiagnoseReport& r) {
               {"outlier_share", Number(r.outlier_share)}, {"outlier_correlation", nlohmann::json::object()}};
   for (const auto& [name, c] : r.outlier_correlation) j["fit"]["outlier_correlation"][name] = Number(c);
   j["notes"] = r.notes;
+  if (!r.warnings.empty()) j["warnings"] = r.warnings;
   nlohmann::json iv = nlohmann::json::array();
   for (const DiagnosedInterval& d : r.intervals) {
     const MotionConditions& m = d.motion;
@@ -282,6 +283,7 @@ std::string DiagnoseSummaryText(const DiagnoseReport& r) {
       << BeforeAfter(db.rms_translation_m, da.rms_translation_m, "m") << ", heading "
       << BeforeAfter(db.rms_heading_rad, da.rms_heading_rad, "rad") << "\n";
   for (const std::string& n : r.notes) s << "note: " << n << "\n";
+  for (const std::string& w : r.warnings) s << "warning: " << w << "\n";
   return s.str();
 }
 

@@ -5,8 +5,8 @@
 // box, the calibration's parameters projected out, an autocorrelation-robust Wald statistic on
 // the fit blocks. The box with the largest statistic is chosen; its p-value is multiplied by the
 // number of boxes tried (Bonferroni), and the effect must then show with the same sign on the
-// held-out intervals inside the box (one-sided score test at 5 %). The caller (Diagnoser::TestRegions)
-// also requires the effect at its fitted size to lower the held-out errors inside the region.
+// held-out intervals inside the box (one-sided score test at 5 %). TestRegions also requires the
+// effect at its fitted size to lower the held-out errors inside the region.
 
 #include <algorithm>
 #include <cmath>
@@ -14,8 +14,11 @@
 
 #include <Eigen/Cholesky>
 
+#include "calib/calibrate/recalibration.h"
 #include "calib/core/statistics.h"
+#include "calib/core/units.h"
 #include "diagnose/diagnose_internal.h"
+#include "diagnose/diagnose_region.h"
 
 namespace calib::diag {
 namespace {
@@ -203,6 +206,111 @@ RegionTest BestRegion(const std::vector<RegionInterval>& intervals, int hac_lags
   out.box = grid.Box(region);
   for (std::size_t k = 0; k < intervals.size(); ++k) out.inside.push_back(grid.Within(region, k));
   return out;
+}
+
+namespace {
+
+constexpr double kHeldoutP = 0.05;       // one-sided level of a region effect's held-out improvement
+constexpr double kMinRegionGain = 0.05;  // and its practical floor (as the actuation layer's kMinGain)
+
+}  // namespace
+
+// Effects of the floor (longitudinal and lateral slip) that the whole recording did not show,
+// tested over boxes of the route in the odometry frame (diagnose_region.cc): the box most
+// significant on the fit blocks, Bonferroni over the boxes and the catalogue's share, confirmed
+// on the held-out intervals inside it. Linearised at the current model; reported with its box.
+void TestRegions(const Recording& recording, const std::vector<Candidate>& cands, const Fit& current,
+                 const SelectionLevels& levels, DiagnoseReport* report) {
+  const std::vector<Interval>& intervals = recording.intervals;
+  std::vector<int> active;  // the calibration's free parameters
+  for (int i = 0; i < recording.num_params; ++i)
+    if (std::find(recording.held_params.begin(), recording.held_params.end(), i) == recording.held_params.end()) active.push_back(i);
+  const double s = std::sqrt(recording.noise_scale2);
+  for (CandidateOutcome& o : report->candidates) {
+    if (o.status == CandidateStatus::kFound || (o.name != "longitudinal_slip" && o.name != "lateral_slip")) continue;
+    const auto c = std::find_if(cands.begin(), cands.end(), [&](const Candidate& k) { return k.name == o.name; });
+    if (c == cands.end()) continue;
+    const int b = c->beta[0];
+    std::vector<RegionInterval> in;
+    std::vector<std::size_t> index;  // into intervals and report->intervals
+    // Outliers too: a patch's slip is many sigma per interval, and the gate at the whole
+    // recording's scale sets exactly those intervals aside; a failed match stays harmless
+    // (alone in a box its own scatter is its variance, so its Wald statistic stays near 1).
+    for (std::size_t k = 0; k < intervals.size(); ++k) {
+      const Interval& it = intervals[k];
+      double r[3];
+      Jacobians jac;
+      Residual(it, current.m, r, &jac, {b});
+      RegionInterval ri;
+      ri.x = report->intervals[k].motion.x, ri.y = report->intervals[k].motion.y, ri.heldout = it.heldout;
+      ri.r = Eigen::Vector3d(r[0], r[1], r[2]) / s;
+      ri.g = jac.beta.col(b) / s;
+      ri.A.resize(3, int(active.size()) + 3);
+      for (std::size_t a = 0; a < active.size(); ++a) ri.A.col(a) = jac.params.col(active[a]) / s;
+      ri.A.rightCols(3) = jac.mount / s;
+      in.push_back(ri), index.push_back(k);
+    }
+    // Physical sign: a floor that slips loses ground while accelerating (slip_per_accel > 0)
+    // and lets the robot skid outwards in a turn (gain > 0).
+    const RegionTest t = BestRegion(in, recording.hac_lags, 1.0, +1);
+    const double share = levels.alpha / std::max(1, levels.candidates);
+    // The held-out residual inside the region, in the effect's component, without and with it.
+    const int comp = o.name == "lateral_slip" ? 1 : 0;
+    std::vector<TimeSpan> spans;
+    std::vector<double> rb, ra, abs_b, abs_a;
+    Model with = current.m;
+    with.beta[b] += t.beta;
+    for (std::size_t j = 0; j < t.inside.size(); ++j) {
+      if (!t.inside[j] || in[j].g.squaredNorm() == 0) continue;
+      const Interval& it = intervals[index[j]];
+      spans.push_back({it.motion->utime_start, it.motion->utime_end});
+      if (!it.heldout) continue;
+      rb.push_back(ErrorOf(it, current.m)[comp]);
+      ra.push_back(ErrorOf(it, with)[comp]);
+      abs_b.push_back(std::abs(rb.back())), abs_a.push_back(std::abs(ra.back()));
+    }
+    // The region's effect at the size the fit blocks give must make the held-out intervals
+    // inside it fit better: their errors lower (paired one-sided test, 5 %) and by at least the
+    // practical floor of a held-out gain (kMinRegionGain). Its held-out estimate can be
+    // significant without that: the route crosses the same places in the fit and the held-out
+    // blocks, so what the model of a large effect found elsewhere leaves there (a backlash's, a
+    // time offset's) repeats in both; and over many intervals, each a little lower, a tiny gain
+    // passes the paired test alone (docs/mismatch.md, "Effects confined to a region").
+    const bool lowers = TestImprovement(abs_b, abs_a, kHeldoutP, kMinRegionGain).significant;
+    if (!(t.p_adjusted < share) || !t.heldout_confirmed || !lowers) {
+      std::ostringstream note;
+      note.precision(3);
+      note << "not confined to a region either: the best of " << t.boxes << " boxes of the route (x " << t.box[0]
+           << " .. " << t.box[2] << ", y " << t.box[1] << " .. " << t.box[3] << " m) gives "
+           << EstimateText(t.beta, t.std, ParamUnit(c->keys[0])) << ", " << PValueText(t.p_adjusted)
+           << " over the boxes, held-out z = " << t.heldout_z << ", held-out RMS there " << Rms(rb) << " without, "
+           << Rms(ra) << " with it";
+      o.note += (o.note.empty() ? "" : "; ") + note.str();
+      continue;
+    }
+    // Found: its size, where it acts and the held-out residual inside the box without and with it.
+    FoundEffect fe;
+    fe.name = o.name, fe.layer = o.layer;
+    fe.params[c->keys[0]] = {t.beta, t.std};
+    fe.wald = t.wald, fe.p_value = t.p, fe.p_adjusted = std::min(1.0, t.p_adjusted / share * levels.alpha);
+    fe.region = t.box;
+    fe.component = comp == 1 ? "y" : "x";
+    fe.where = MergeSpans(spans, 1000000);
+    fe.heldout_rms_before = fe.heldout_rms_all_before = Rms(rb);
+    fe.heldout_rms_after = fe.heldout_rms_all_after = Rms(ra);
+    std::ostringstream regime;
+    regime.precision(3);
+    regime << "only inside the region x " << t.box[0] << " .. " << t.box[2] << " m, y " << t.box[1] << " .. "
+           << t.box[3] << " m of the odometry frame (best of " << t.boxes << " boxes; held-out estimate there "
+           << t.heldout_beta << ", z = " << t.heldout_z << ")";
+    fe.regime = regime.str();
+    fe.regressor = c->regressor;
+    report->effects.push_back(fe);
+    o.status = CandidateStatus::kFound;
+    o.estimate = {t.beta, t.std};
+    o.p_value = t.p, o.p_adjusted = fe.p_adjusted;
+    o.note = "confined to a region of the floor: " + fe.regime;
+  }
 }
 
 }  // namespace calib::diag

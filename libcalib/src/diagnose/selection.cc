@@ -55,10 +55,9 @@ SingleVerdicts JudgeSingles(const std::vector<SingleFit>& fits, const SelectionL
     // The Wald statistic rests on a linearisation and a robust variance; where the model is
     // far from linear in the parameter (a lag near its bound) or the regressor acts on a few
     // intervals only (their variance estimated from a handful of residuals), it can overstate
-    // the evidence by orders of magnitude: a steering lag with Wald 114 lowered the chi-square
-    // by 1.2 on a recording without any. So the fit must also pay for its parameter in BIC
-    // (every effect found in the concealed-effect suite does so by 4.8 or more), and data the
-    // fit never saw must confirm it.
+    // the evidence by orders of magnitude: a large Wald statistic while the chi-square hardly
+    // drops. So the fit must also pay for its parameter in BIC (a real effect pays by a margin,
+    // docs/mismatch.md), and data the fit never saw must confirm it.
     const bool pays = o.delta_bic < 0;
     out.eligible[j] = p_adj[j] < alpha_odo && pays && f.heldout_confirmed;
     if (p_adj[j] < alpha_odo && !out.eligible[j]) {

@@ -41,12 +41,11 @@ namespace calib {
 enum class MotionSource { kLidar2d, kPose, kImu };
 const char* MotionSourceName(MotionSource source);
 
-// Search bound of a sensor-to-wheel time offset: real recordings show 0.02-0.4 s (the
-// Lego robot's 4 Hz streams 0.4 s, docs/mismatch.md).
+// Search bound of a sensor-to-wheel time offset: above those real recordings show (slow
+// streams reach close to it, docs/mismatch.md).
 inline constexpr double kMaxTimeOffsetS = 0.5;
-// When the search's best lies at its bound, the offset may lie beyond it (the Lego robot's own
-// 0.43 s with every scan stamp 120 ms later: 0.55 s): the search is repeated over twice the
-// range, up to this bound.
+// When the search's best lies at its bound, the offset may lie beyond it: the search is repeated
+// over twice the range, up to this bound.
 inline constexpr double kWidestTimeOffsetS = 2.0;
 
 struct CalibrationOptions {
@@ -60,6 +59,8 @@ struct CalibrationOptions {
   // (PathWindowLength), so the paired comparison can show a difference beyond chance.
   int heldout_windows = 20;
   bool check_observability = true;  // throw UnobservableError when a parameter is undetermined
+  // Iterations of the solver; a fit that stops at this limit is reported (CalibrationResult::warnings).
+  int max_iterations = 100;
 };
 
 struct IntervalResidual {
@@ -109,6 +110,9 @@ struct CalibrationResult {
   Eigen::MatrixXd covariance;
   std::vector<IntervalResidual> intervals;
   std::optional<HeldoutComparison> heldout;
+  // What the numbers above cannot show, in words: a fit that stopped short of convergence, a time
+  // offset at its search bound that could not be searched beyond (RESULT.json `warnings`).
+  std::vector<std::string> warnings;
   // Input left out before the fit (calib/io/message_source.h, Drop): how many messages and
   // the first notes naming them. Not set by Calibrate, which sees only what was kept.
   int64_t input_dropped = 0;

@@ -3,6 +3,7 @@
 // the interval between two sensor observations, carried through the sensor's mount and compared
 // with the sensor's measured motion. The calibration (calibration.cc) fits it with the drive
 // kinematics alone; the diagnosis (diagnose/diagnose_model.h) extends it with the effect terms.
+// Both build and solve their least-squares problem through interval_problem.h.
 //
 // Frames. b_k is the robot's body frame (reference point, x forward) at the interval's start
 // stamp t0 and end stamp t1 = t0 + D; s_k = b_k ∘ l the sensor's frame, with the mount
@@ -137,6 +138,13 @@ class IntervalCost {
     e[1] = measured[1] - z.y;
     const double turns = std::round((Scalar(measured[2]) - Scalar(z.theta)) / (2.0 * M_PI));
     e[2] = measured[2] - z.theta - T(turns * 2.0 * M_PI);
+  }
+
+  // The same at the values of the blocks.
+  Eigen::Vector3d ErrorAt(const double* params, const double* mount, const double* extra) const {
+    double e[3];
+    Error(params, mount, extra, e);
+    return {e[0], e[1], e[2]};
   }
 
   // m as measured; a model that corrects it hides this.

@@ -81,9 +81,9 @@ struct SecondPassInput {
 // result until the offset found is the one the scans were matched at (within
 // kDeskewedAgreeSigmas of its sigma), at most kMaxDeskewedPasses times: which scans are matched
 // (the keyframes) follows the wheel motion predicted between their stamps, so the first pass's
-// offset, itself matched on the recorded stamps, chose them, and on the Lego robot's 4 Hz data
-// that moved the answer by up to 12 ms (a sigma) with every scan stamp shifted (issue 16); the
-// scans matched at the offset they give do not depend on the stamps' shift. The live solver runs
+// offset, itself matched on the recorded stamps, chose them, and on slow scan streams that moved
+// the answer by up to a sigma with every scan stamp shifted (docs/mismatch.md); the scans matched
+// at the offset they give do not depend on the stamps' shift. The live solver runs
 // it on the group's recording at its final solve (docs/live.md), so `log_path` may still be being
 // written: it is read to its last complete event. `read`, if given, receives what it read.
 inline constexpr int kMaxDeskewedPasses = 4;
@@ -97,7 +97,7 @@ CalibrationResult SolveAgainDeskewed(const RobotDescription& robot, const std::s
 // second time, de-skewed with the calibrated model on the wheel clock (the offset found), and
 // calibrated again, as `agvcal diagnose` does: the matcher places a scan at its mean beam time,
 // so the nominal de-skew model's error over that lead (its relative turn-rate error times the
-// lead) otherwise reads as a time offset, +0.3 ms on the simulated differential drive. The second
+// lead) otherwise reads as a small time offset (docs/calibration.md). The second
 // pass is SolveAgainDeskewed, which the live agvcal-solver --time-offset runs too.
 CalibrationResult SolveLog(const RobotDescription& robot, const std::string& log_path,
                            const SolveLogOptions& options);

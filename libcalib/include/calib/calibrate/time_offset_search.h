@@ -2,8 +2,8 @@
 // Global search for the sensor-to-wheel time offset, before any local fit.
 //
 // The interval cost of a time offset has local minima an encoder or scan period apart and a basin
-// only as wide as the motion's bandwidth allows; a local fit started at zero found 0.3 ms for an
-// 18 ms offset and 38.6 ms for MIT CSAIL's 242 ms (issue 16). So every estimate of the offset
+// only as wide as the motion's bandwidth allows, so a local fit started at zero stops in the
+// nearest minimum, far from a large offset (docs/mismatch.md). So every estimate of the offset
 // (`agvcal solve --time-offset`, calibration.cc, and `agvcal diagnose`, which starts from the
 // calibration's joint estimate) starts from this search, and the local, joint fit refines it.
 //
@@ -20,7 +20,7 @@
 // then again at the first pass's best. Every valid match counts at every offset (where an
 // interval reaches beyond the wheel data, the wheel motion is held at the data's end), so nothing
 // depends on where the offset lies in the range: shifting every sensor stamp moves the result by
-// the shift (issue 16). The heading and distance do not depend on the sensor's mount to first
+// the shift. The heading and distance do not depend on the sensor's mount to first
 // order, so the search needs no mount. Calibrate repeats the search (and its fit) over twice the
 // range when the best lies at the bound (calibration.h kWidestTimeOffsetS).
 

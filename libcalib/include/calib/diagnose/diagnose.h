@@ -49,6 +49,8 @@ struct DiagnoseOptions {
   // Threads for the independent fits (each candidate's, each look-alike pair's); 0: the
   // hardware's, at most 2 (core/progress.h WorkerThreads). The report is the same for any number.
   int jobs = 0;
+  // Iterations of each fit's solve; a fit that stops at this limit is named in the notes.
+  int max_iterations = 50;
   std::function<void(const std::string&)> progress;
 };
 
@@ -151,8 +153,8 @@ struct FoundEffect {
   std::string heldout_measure = "per_interval";
   // The held-out proofs disagree: the measure that judges it is not lower with the effect,
   // although a held-out test declared it; `heldout_confirmed_by` names the test that confirms it
-  // against the final model without it: "score", "drift", or "" (neither). Issue 16: Mines exp2's
-  // lateral_slip, confirmed by the score test while its drift over 2 s rose (256 -> 278 mm).
+  // against the final model without it: "score", "drift", or "" (neither). The score test sees
+  // each interval, the drift the chained motion: an effect can lower one and raise the other.
   bool heldout_disagrees = false;
   std::string heldout_confirmed_by;
   std::vector<TimeSpan> where;
@@ -239,6 +241,10 @@ struct DiagnoseReport {
   };
   std::vector<Trace> actuation;
   std::vector<std::string> notes;
+  // A fit that stopped short of convergence (the starting calibrations, the baseline, a candidate
+  // alone, a confusable pair, the final model): its test or its values are uncertain. REPORT.json
+  // `warnings` (absent when empty).
+  std::vector<std::string> warnings;
   // The robot-clock utime of the recording's first message: t = 0 of the report's times
   // (DiagnoseLog sets it; 0: the first interval's start).
   int64_t recording_start_utime = 0;

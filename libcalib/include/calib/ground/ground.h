@@ -1,5 +1,5 @@
 #pragma once
-// 3D lidar: height, pitch and roll above the floor (DESIGN.md, job 2), from
+// 3D lidar: height, pitch and roll above the floor (docs/ground.md), from
 // plain point arrays. No bus, no files here (ground_session.h reads those).
 //
 // Convention (spec/robot.md, the simulator): the sensor's orientation in the
