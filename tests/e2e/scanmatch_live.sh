@@ -31,7 +31,7 @@ if "$CHECK" scanmatch "$log" "$robot" "$TMP/live.log"; then
 else
   fail "live SCAN_MATCH differs from the offline pipeline"
 fi
-left=$(pgrep -f "$BUILD/agvcal-scanmatch|lcm-logger -f $TMP|lcm-logplayer" || true)
+left=$(test_pgrep "$BUILD/agvcal-scanmatch|lcm-logger -f $TMP|lcm-logplayer")
 if [ -z "$left" ]; then pass "no process left behind"; else fail "left behind: $left"; fi
 
 # Bad input: no 2D lidar in the robot file, unreadable file, unknown option.
