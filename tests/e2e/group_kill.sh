@@ -60,7 +60,7 @@ done
 run=killed_logger
 group "$run"
 rec=$TMP/$run/recording.log
-wait_for 120 "1600 wheel states recorded" at_least 1600 recorded WHEELS "$rec"
+wait_for 120 "1000 wheel states recorded" at_least 1000 recorded WHEELS "$rec"
 lcm_logger=$(pgrep -P "$(group_pid "$TMP/$run" logger)" -x lcm-logger)
 if [ -n "$lcm_logger" ] && kill -STOP "$lcm_logger"; then
   # What the stopped logger wrote ends with a whole event (its own buffered tail cut off), then
@@ -71,9 +71,14 @@ if [ -n "$lcm_logger" ] && kill -STOP "$lcm_logger"; then
 else
   fail "no lcm-logger to kill"
 fi
-wait_for 120 "the restarted logger recording" at_least 2200 recorded WHEELS "$rec"
+at_kill=$(recorded WHEELS "$rec")
+wait_for 120 "the restarted logger recording" at_least $((at_kill + 200)) recorded WHEELS "$rec"
 victim=$(group_pid "$TMP/$run" solver)
-[ -n "$victim" ] && kill -KILL "$victim" && pass "solver killed after the logger's restart" || fail "no solver to kill"
+if [ -n "$victim" ] && [ -n "$(group_pid "$TMP/$run" player)" ]; then
+  kill -KILL "$victim" && pass "solver killed after the logger's restart, while the replay runs"
+else
+  fail "no solver (or no replay) to kill: '$victim'"
+fi
 wait "$pid"; code=$?
 [ "$code" -eq 0 ] && pass "the run ends with the replay (exit 0)" || fail "run exit $code: $(tail -3 "$TMP/$run.out")"
 grep -q "cut a torn last event (20 bytes" "$TMP/$run/logger.out" && pass "the restarted logger cut the torn event" \
