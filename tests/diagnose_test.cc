@@ -477,7 +477,7 @@ TEST(Diagnose, TimeOffsetAndSlipThatHideEachOther) { ExpectOffsetAndSlip("dual_s
 class SlalomLog {
  public:
   explicit SlalomLog(const SimConfig& config)
-      : path_("/tmp/agvcal_diagnose_slalom_" + std::to_string(::getpid()) + "_" + std::to_string(counter_++) + ".log") {
+      : path_(testing::TempDir() + "diagnose_slalom_" + std::to_string(counter_++) + ".log") {
     LogWriter writer(path_);
     Simulator sim(config);
     const double radius = config.robot.param("drive_radius"), offset = config.robot.param("steer_offset");
@@ -563,7 +563,7 @@ TEST(Diagnose, ReportFilesAndSimConfig) {
   EXPECT_TRUE(j["effects"][0]["evidence"].contains("delta_bic"));
   EXPECT_TRUE(j["effects"][0]["evidence"].contains("p_value"));
   EXPECT_TRUE(j["unexplained"].is_array());
-  const std::string dir = "/tmp/agvcal_diagnose_test_report_" + std::to_string(::getpid());
+  const std::string dir = testing::TempDir() + "diagnose_test_report";
   WriteDiagnoseReportDir(r, dir);
   EXPECT_EQ(j["effects"][0]["heldout_stretch"]["per_stretch"].size(), r.effects[0].stretches.size());
   EXPECT_GE(r.effects[0].stretches.size(), 5u);
@@ -598,7 +598,7 @@ TEST(Diagnose, ReportFilesAndSimConfig) {
 }
 
 TEST(Diagnose, MissingWheelsIsAnInputError) {
-  const std::string path = "/tmp/agvcal_diagnose_test_empty_" + std::to_string(::getpid()) + ".log";
+  const std::string path = testing::TempDir() + "diagnose_test_empty.log";
   {
     LogWriter writer(path);
     writer.Close();

@@ -543,7 +543,7 @@ TEST(GroundTest, TurningLidarGetsOneEstimatePerSector) {
   }
   EXPECT_LT(std::sqrt(h2 / (result.floor_points.size() / 3)), 0.02);
   EXPECT_EQ(result.frame_fits.size(), result.frame_angles.size());
-  const std::string dir = "/tmp/agvcal_ground_test_report_" + std::to_string(::getpid());
+  const std::string dir = testing::TempDir() + "ground_test_report";
   WriteGroundReportDir(config.robot, result, GroundInput{"turret.log", "log", 1, 0}, dir);
   std::ifstream in(dir + "/index.html");
   const std::string page((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>());

@@ -262,7 +262,7 @@ TEST(ImuCalibration, MeasuredTurnCalibratesTheGyroScale) {
 class SimLogFile {
  public:
   SimLogFile(const SimConfig& config, const std::string& trajectory)
-      : path_("/tmp/agvcal_imu_test_" + std::to_string(::getpid()) + "_" + trajectory + ".log") {
+      : path_(testing::TempDir() + "imu_test_" + trajectory + ".log") {
     LogWriter writer(path_);
     OfflineRunOptions run;
     run.trajectory = trajectory;

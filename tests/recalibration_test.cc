@@ -38,7 +38,7 @@ namespace {
 std::string Source(const std::string& relative) { return std::string(AGVCAL_SOURCE_DIR) + "/" + relative; }
 
 std::string TempPath(const std::string& name) {
-  return "/tmp/agvcal_recal_test_" + std::to_string(::getpid()) + "_" + name;
+  return testing::TempDir() + "recal_test_" + name;
 }
 
 std::string ReadText(const std::string& path) {

@@ -1,7 +1,7 @@
 #pragma once
 // Test helpers shared by the tests that run the simulator into a recording file.
 
-#include <unistd.h>
+#include <gtest/gtest.h>
 
 #include <cstdio>
 #include <string>
@@ -19,7 +19,7 @@ inline std::string Source(const std::string& relative) { return std::string(AGVC
 class SimLog {
  public:
   explicit SimLog(const SimConfig& config, const std::string& trajectory = "default")
-      : path_("/tmp/agvcal_test_" + std::to_string(::getpid()) + "_" + std::to_string(counter_++) + ".log") {
+      : path_(testing::TempDir() + "sim_log_" + std::to_string(counter_++) + ".log") {
     LogWriter writer(path_);
     OfflineRunOptions run;
     run.trajectory = trajectory;

@@ -9,8 +9,8 @@
 
 #include <algorithm>
 #include <cmath>
+#include <filesystem>
 #include <fstream>
-#include <unistd.h>
 #include <functional>
 #include <map>
 #include <string>
@@ -43,9 +43,8 @@ SimConfig Parse(const std::string& yaml) { return ParseSimConfig(yaml, "inline.y
 // A 10 m x 10 m square room centred at the origin (walls at x, y = +-5).
 constexpr double kRoomHalf = 5.0;
 std::string RoomWorld() {
-  // One file per process: ctest runs the cases in parallel, and one truncating the file while
-  // another reads it failed ScanRangesMatchTheRoomFromTheTrueMount now and then.
-  const std::string path = testing::TempDir() + "/simulator_test_room." + std::to_string(getpid()) + ".world";
+  // In the test process's own temporary folder (tests/scratch_dir.cc).
+  const std::string path = testing::TempDir() + "simulator_test_room.world";
   std::ofstream out(path);
   out << "# 10 m x 10 m room\nwall -5 -5 5 -5\nwall 5 -5 5 5\nwall 5 5 -5 5\nwall -5 5 -5 -5\n";
   return path;
@@ -1160,12 +1159,11 @@ TEST(SimulatorTest, RegionCommandsAndPhysicsStepErrors) {
 }
 
 TEST(SimulatorTest, RelativeWorldFileResolvesAgainstTheConfigDirectory) {
-  const std::string dir = testing::TempDir();
-  RoomWorld();  // writes simulator_test_room.world into TempDir
+  const std::filesystem::path world = RoomWorld();
   const SimConfig config = ParseSimConfig(std::string("robot: ") + AGVCAL_SOURCE_DIR +
                                               "/config/robots/diff_robot.yaml\n"
-                                              "world: simulator_test_room.world\n",
-                                          "inline.yaml", dir);
+                                              "world: " + world.filename().string() + "\n",
+                                          "inline.yaml", world.parent_path().string());
   Simulator sim(config);  // finds the room, not a file in the working directory
   MemorySink sink;
   sim.AdvanceTo(kStart + Us(0.06), &sink);

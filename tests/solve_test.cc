@@ -129,7 +129,7 @@ TEST(Solve, SecondPassOnARecordingStillBeingWrittenGivesSolveLogsResult) {
 
   std::ifstream in(log, std::ios::binary);
   const std::vector<char> bytes((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>());
-  const std::string growing = ::testing::TempDir() + "growing_" + std::to_string(getpid()) + ".log";
+  const std::string growing = ::testing::TempDir() + "growing.log";
   {
     std::ofstream out(growing, std::ios::binary | std::ios::trunc);
     out.write(bytes.data(), static_cast<std::streamsize>(bytes.size()));

@@ -159,7 +159,7 @@ PY
 for f in overview residuals parameters bus_live; do echo "--- $f"; cat "$TMP/$f.txt"; done
 
 for _ in 1 2 3 4 5; do  # the tmux server exits shortly after kill-server
-  left=$(pgrep -f "$BUILD/agvcal-(dashboard|scanmatch|solver|commander)|tmux -S $TMP" || true)  # the player is waited for
+  left=$(test_pgrep "$BUILD/agvcal-(dashboard|scanmatch|solver|commander)|tmux -S $TMP")  # the player is waited for
   [ -z "$left" ] && break; sleep 0.5
 done
 if [ -z "$left" ]; then pass "no process left behind"; else fail "left behind: $(ps -o pid,args -p "${left//$'\n'/,}")"; fi

@@ -37,7 +37,7 @@ else
 fi
 expect_status 0 "agvcal fuse on the recording" "$AGVCAL" fuse "$robot" "$TMP/imu.log" --out "$TMP/poses.csv"
 if [ "$(wc -l < "$TMP/poses.csv")" -gt 1000 ]; then pass "poses.csv written"; else fail "poses.csv short"; fi
-left=$(pgrep -f "$BUILD/agvcal-fusion|lcm-logger -f $TMP|lcm-logplayer -s 4 $TMP" || true)
+left=$(test_pgrep "$BUILD/agvcal-fusion|lcm-logger -f $TMP|lcm-logplayer -s 4 $TMP")
 if [ -z "$left" ]; then pass "no process left behind"; else fail "left behind: $left"; fi
 
 grep -v '^imu:' "$robot" > "$TMP/no_imu.yaml"

@@ -128,7 +128,7 @@ stderr_has "no estimate for sector"; stderr_has "turn the lidar through every se
 expect_status 0 "agvcal ground --help" "$AGVCAL" ground --help
 expect_status 0 "agvcal-ground --help" "$GROUND" --help
 expect_status 2 "agvcal-ground with a bad window" "$GROUND" $robot --window 0
-left=$(pgrep -f "$GROUND" || true)
+left=$(test_pgrep "$GROUND")
 [ -z "$left" ] && pass "no agvcal-ground left behind" || { fail "agvcal-ground left behind: $left"; kill -9 $left; }
 no_orphans
 finish

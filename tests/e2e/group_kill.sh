@@ -3,8 +3,9 @@
 # group's recording and ends with the calibration of an undisturbed run: the sample recording
 # is replayed through the group (lcm-logger, agvcal-scanmatch, agvcal-solver under supervisord,
 # in a private network namespace) once undisturbed, then once per process with that process
-# getting SIGKILL 8 s into the replay (about 16 s of its 29 s of robot time). Every RESULT.json
-# is byte-identical to the undisturbed run's, which equals `agvcal solve`'s value for value.
+# getting SIGKILL once the recording holds 1600 wheel states (16 s of its 29 s of robot time:
+# the test waits for that state, not for a time). Every RESULT.json is byte-identical to the
+# undisturbed run's, which equals `agvcal solve`'s value for value.
 source "$(dirname "$0")/lib.bash" "$@"
 robot=config/robots/forklift.yaml
 log=logs/forklift_demo.log   # 29 s of robot time: about 14 s at speed 2
@@ -31,10 +32,9 @@ PY
 for process in scanmatch solver; do
   run=killed_$process
   group "$run"
-  sleep 8
-  supervisor=$(pgrep -f "supervisord .*$TMP/$run/supervisord.conf" | head -1)
-  victim=$(pgrep -P "${supervisor:-0}" -f "$BUILD/agvcal-$process" || true)
-  if [ -n "$victim" ] && pgrep -f "lcm-logplayer -s 2 $SRC/$log" >/dev/null; then
+  wait_for 120 "1600 wheel states recorded" at_least 1600 recorded WHEELS "$TMP/$run/recording.log"
+  victim=$(group_pid "$TMP/$run" "$process")
+  if [ -n "$victim" ] && [ -n "$(group_pid "$TMP/$run" player)" ]; then
     kill -KILL $victim && pass "$process killed while the replay runs (pid $victim)"
   else
     fail "no $process (or no replay) to kill: '$victim'"
@@ -52,5 +52,42 @@ for process in scanmatch solver; do
     && pass "RESULT.json with $process killed is byte-identical to the undisturbed run's" \
     || fail "RESULT.json differs: $(diff "$TMP/undisturbed/RESULT.json" "$TMP/$run/RESULT.json" | head -6)"
 done
+
+# The logger killed while writing an event (stopped, part of an event added to the file as a
+# write cut short leaves it, then SIGKILL: its buffered writes are lost), later the solver:
+# the restarted logger cuts the torn event off before it appends, so the recording reads
+# whole and the restarted solver catches up through it and writes RESULT.json.
+run=killed_logger
+group "$run"
+rec=$TMP/$run/recording.log
+wait_for 120 "1000 wheel states recorded" at_least 1000 recorded WHEELS "$rec"
+lcm_logger=$(pgrep -P "$(group_pid "$TMP/$run" logger)" -x lcm-logger)
+if [ -n "$lcm_logger" ] && kill -STOP "$lcm_logger"; then
+  # What the stopped logger wrote ends with a whole event (its own buffered tail cut off), then
+  # 20 bytes of the first event's header: a torn event, whatever the logger's buffer held.
+  "$BUILD/agvcal-recording" repair "$rec" 2>/dev/null
+  head -c 20 "$rec" >"$TMP/torn" && cat "$TMP/torn" >>"$rec"
+  kill -KILL "$lcm_logger" && pass "lcm-logger killed with a torn event at the end of the recording"
+else
+  fail "no lcm-logger to kill"
+fi
+at_kill=$(recorded WHEELS "$rec")
+wait_for 120 "the restarted logger recording" at_least $((at_kill + 200)) recorded WHEELS "$rec"
+victim=$(group_pid "$TMP/$run" solver)
+if [ -n "$victim" ] && [ -n "$(group_pid "$TMP/$run" player)" ]; then
+  kill -KILL "$victim" && pass "solver killed after the logger's restart, while the replay runs"
+else
+  fail "no solver (or no replay) to kill: '$victim'"
+fi
+wait "$pid"; code=$?
+[ "$code" -eq 0 ] && pass "the run ends with the replay (exit 0)" || fail "run exit $code: $(tail -3 "$TMP/$run.out")"
+grep -q "cut a torn last event (20 bytes" "$TMP/$run/logger.out" && pass "the restarted logger cut the torn event" \
+  || fail "logger.out: $(cat "$TMP/$run/logger.out")"
+expect_status 0 "the recording reads whole from start to end" "$AGVCAL" info "$rec"
+grep -q "the logger was restarted 1 time" "$TMP/$run.out" && pass "the group names the recording's gap" \
+  || fail "no word about the gap: $(tail -3 "$TMP/$run.out")"
+spawns=$(grep -c "spawned: 'solver'" "$TMP/$run/supervisord.log")
+[ "$spawns" -eq 2 ] && pass "the solver restarted once (did not die catching up)" || fail "solver spawned $spawns times: $(tail -5 "$TMP/$run/solver.out")"
+[ -s "$TMP/$run/RESULT.json" ] && pass "RESULT.json written" || fail "no RESULT.json: $(tail -3 "$TMP/$run.out")"
 no_orphans
 finish

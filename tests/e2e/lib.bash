@@ -1,8 +1,16 @@
 # Shared by the end-to-end tests: paths, a scratch directory, and checks.
 # Usage in a test: source "$(dirname "$0")/lib.bash" "$@"
+# Every test owns its bus and its files, so tests run in parallel and in any order: the
+# whole test runs in a private network namespace of its own (scripts/netns-run), its files
+# are in a temporary directory of its own ($TMP, removed at the end), and every process it
+# starts carries $TMP in its environment (AGVCAL_TEST_RUN), by which the test finds its own
+# processes and none of another test's.
 set -u
 BUILD=$(cd "${1:?build dir}" && pwd)
 SRC=$(cd "${2:?source dir}" && pwd)
+if [ -z "${AGVCAL_TEST_NETNS:-}" ]; then
+  AGVCAL_TEST_NETNS=1 exec "$SRC/scripts/netns-run" bash "$0" "$@"
+fi
 export AGVCAL_BIN=$BUILD
 # A 4 MB receive buffer (capped by net.core.rmem_max): with the default 208 kB a
 # process stalled ~0.1 s by a loaded machine loses UDP messages, and a lost IMU or
@@ -11,7 +19,18 @@ export LCM_DEFAULT_URL="udpm://239.255.76.67:7667?ttl=0&recv_buf_size=4194304"
 AGVCAL=$BUILD/agvcal
 CHECK=$BUILD/tests/e2e_log_check
 TMP=$(mktemp -d)
-trap 'rm -rf "$TMP"' EXIT
+export AGVCAL_TEST_RUN=$TMP
+# test_pgrep PATTERN: pgrep -f PATTERN among this test's processes only.
+test_pgrep() {
+  local pid
+  for pid in $(pgrep -f -- "$1"); do
+    [ "$pid" = $$ ] && continue
+    tr '\0' '\n' <"/proc/$pid/environ" 2>/dev/null | grep -qxF "AGVCAL_TEST_RUN=$TMP" && echo "$pid"
+  done
+  return 0
+}
+OWN_PROCESSES="$BUILD/agvcal-|agvcal-group|lcm-logger|lcm-logplayer|supervisord|tmux"
+trap 'kill -9 $(test_pgrep "$OWN_PROCESSES") 2>/dev/null; rm -rf "$TMP"' EXIT
 cd "$SRC"
 fails=0 passes=0
 pass() { echo "PASS $*"; passes=$((passes + 1)); }
@@ -26,7 +45,31 @@ expect_status() {
 stderr_has() { if grep -qF -- "$1" "$TMP/stderr"; then pass "message names '$1'"; else fail "message lacks '$1': $(head -c 400 "$TMP/stderr")"; fi; }
 no_orphans() {
   local left
-  left=$(pgrep -f "$BUILD/agvcal-(sim|commander|solver|scanmatch)|lcm-logger .*$TMP|lcm-logplayer .*($TMP|$SRC)|supervisord -n -c $TMP" || true)
-  if [ -z "$left" ]; then pass "no process left behind"; else fail "processes left behind: $(ps -o pid=,args= -p "$(echo $left | tr " " ,)")"; pkill -9 -f "$BUILD/agvcal-" || true; fi
+  left=$(test_pgrep "$OWN_PROCESSES")
+  if [ -z "$left" ]; then pass "no process left behind"; else fail "processes left behind: $(ps -o pid=,args= -p "$(echo $left | tr " " ,)")"; kill -9 $left; fi
+}
+# wait_for SECONDS WHAT CMD...: waits until CMD succeeds (tried every 0.2 s); after SECONDS a
+# failed check naming WHAT. Tests wait for states, not for times: load changes only how long.
+wait_for() {
+  local limit=$1 what=$2; shift 2
+  local until=$((SECONDS + limit))
+  until "$@" >/dev/null 2>&1; do
+    if [ "$SECONDS" -ge "$until" ]; then fail "waited $limit s for $what"; return 1; fi
+    sleep 0.2
+  done
+}
+# recorded CHANNEL LOG: the messages on CHANNEL that LOG holds so far (0 if none, or no LOG)
+recorded() {
+  local n
+  n=$("$BUILD/agvcal-recording" count "$2" 2>/dev/null | grep -oE "(: |, )$1 [0-9]+" | grep -oE '[0-9]+$')
+  echo "${n:-0}"
+}
+# at_least N CMD...: CMD prints a number >= N
+at_least() { [ "$("${@:2}")" -ge "$1" ]; }
+# group_pid RUN_DIR PROCESS: the pid of PROCESS in the group of RUN_DIR (supervisorctl), or nothing
+group_pid() {
+  local pid
+  pid=$(supervisorctl -c "$1/supervisord.conf" pid "$2" 2>/dev/null)
+  [[ "$pid" =~ ^[1-9][0-9]*$ ]] && echo "$pid"
 }
 finish() { echo "checks: $passes passed, $fails failed"; [ "$fails" -eq 0 ]; exit $?; }

@@ -34,7 +34,7 @@ if "$BUILD/tests/bridge_check" scans "$log" "$TMP/live.log" 10 300; then
 else
   fail "recorded scans differ"
 fi
-left=$(pgrep -f "$BUILD/agvcal-(sickemu|lidarbridge)|lcm-logger -f $TMP" || true)
+left=$(test_pgrep "$BUILD/agvcal-(sickemu|lidarbridge)|lcm-logger -f $TMP")
 if [ -z "$left" ]; then pass "no process left behind"; else fail "left behind: $left"; fi
 
 # Bad input: config errors name file, line and key; options.

@@ -75,7 +75,7 @@ else fail "live decisions differ: $(diff <(cut -c1-300 "$TMP/offline.jsonl") <(c
 if cmp -s "$TMP/offline.yaml" "$TMP/live.yaml"; then pass "live robot file identical to offline"
 else fail "live robot file differs"; fi
 if ls "$TMP"/*.partial >/dev/null 2>&1; then fail "partial files left"; else pass "no partial file left"; fi
-left=$(pgrep -f "$BUILD/agvcal-(scanmatch|recal)|lcm-logplayer -s [0-9]+ $log" || true)
+left=$(test_pgrep "$BUILD/agvcal-(scanmatch|recal)|lcm-logplayer -s [0-9]+ $log")
 if [ -z "$left" ]; then pass "no process left behind"; else fail "left behind: $left"; fi
 
 # A restart goes on from the accepted robot file (its std: as the uncertainty in use).

@@ -31,8 +31,7 @@ if "$CHECK" scanmatch "$log" "$robot" "$TMP/live.log"; then
 else
   fail "live SCAN_MATCH differs from the offline pipeline"
 fi
-# Only this test's processes: other worktrees' tests may be replaying logs meanwhile.
-left=$(pgrep -f "$BUILD/agvcal-scanmatch|lcm-logger -f $TMP|lcm-logplayer -s 4 $SRC/$log" || true)
+left=$(test_pgrep "$BUILD/agvcal-scanmatch|lcm-logger -f $TMP|lcm-logplayer")
 if [ -z "$left" ]; then pass "no process left behind"; else fail "left behind: $left"; fi
 
 # Bad input: no 2D lidar in the robot file, unreadable file, unknown option.

@@ -1,0 +1,29 @@
+#!/usr/bin/env bash
+# A full disk during a live run ends the group within seconds, with one line saying so,
+# and nothing is restarted into it: the simulated forklift's group runs with its run
+# directory on a 20 MB tmpfs of its own (a private mount namespace), 19 MB of it taken
+# beforehand, so that the recording fills it a few seconds into the trajectory.
+source "$(dirname "$0")/lib.bash" "$@"
+mkdir "$TMP/disk"
+cat >"$TMP/full.sh" <<SCRIPT
+mount -t tmpfs -o size=20m agvcal-test-disk "$TMP/disk" || exit 99
+head -c 19M /dev/zero >"$TMP/disk/filler"
+start=\$(date +%s%N)
+scripts/agvcal-group --sim config/sims/forklift.yaml --trajectory default --speed 2 \
+  --run-dir "$TMP/disk/run" >"$TMP/group.out" 2>&1
+echo "\$? \$(( (\$(date +%s%N) - start) / 1000000 ))" >"$TMP/ended"
+cp -r "$TMP/disk/run" "$TMP/run"   # the tmpfs goes with the namespace
+SCRIPT
+timeout 120 unshare -m bash "$TMP/full.sh"
+read -r code ms <"$TMP/ended" || { code=none ms=0; }
+[ "$code" = 1 ] && pass "the group exits 1 on a full disk" || fail "group exit $code: $(tail -5 "$TMP/group.out")"
+# An undisturbed run of this trajectory takes about 40 s at --speed 2.
+[ "$ms" -lt 20000 ] && pass "it ended $ms ms after it started" || fail "it ran $ms ms"
+grep -q "^agvcal-group: the disk of .* is full (.* kB free); see " "$TMP/group.out" \
+  && pass "one line says the disk is full" || fail "group.out: $(tail -5 "$TMP/group.out")"
+tracebacks=$(grep -c Traceback "$TMP/group.out")
+[ "$tracebacks" -eq 0 ] && pass "no traceback" || fail "$tracebacks tracebacks: $(grep -m 3 -A 3 Traceback "$TMP/group.out")"
+spawns=$(grep -c "spawned: 'logger'" "$TMP/run/supervisord.log" 2>/dev/null)
+[ "${spawns:-0}" -eq 1 ] && pass "the logger was not restarted into the full disk" || fail "logger spawned $spawns times"
+no_orphans
+finish
