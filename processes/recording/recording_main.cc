@@ -21,19 +21,21 @@
 
 namespace {
 
-const char* kUsage = R"(usage: agvcal-recording repair|drain|count RECORDING [options]
-
+// The command line: arguments, options and the help made from them.
+void Declare(agvcal_process::CommandLine* args) {
+  args->Description(R"(What scripts/agvcal-group does to its recording around Debian's lcm-logger:
   repair RECORDING   cut a recording back to its last whole event (a logger killed while
                      writing leaves a torn one; lcm-logger -a would append after it)
   drain RECORDING    publish the group's mark (HEARTBEAT, process "group") every 150 ms
                      until one is in RECORDING: everything published before it has then
-                     been received and written by the logger. Exit 1 after --timeout.
-  count RECORDING    the recording's messages per channel, on one line
-Options:
-  --timeout S        drain: give up after S seconds (default 10)
-  --lcm-url URL      drain: LCM provider (default: $LCM_DEFAULT_URL or LCM's default)
-Exit status: 0 done, 1 the mark never reached the recording, 2 unusable input.
-)";
+                     been received and written by the logger
+  count RECORDING    the recording's messages per channel, on one line)")
+      .Positional("COMMAND", "repair, drain or count")
+      .Positional("RECORDING", "the group's recording (lcm-logger)")
+      .Option("--timeout", "S", "drain: give up after S seconds (default 10)")
+      .Option("--lcm-url", "URL", agvcal_process::kLcmUrlHelp)
+      .Footer("Exit status: 0 done, 1 the mark never reached the recording (drain), 2 unusable input.\n");
+}
 
 constexpr const char* kGroupProcess = "group";
 
@@ -112,8 +114,9 @@ int Count(const std::string& path) {
 
 int Run(int argc, char** argv) {
   using namespace agvcal_process;
-  const Args args = ParseArgs(argc, argv, 1, {"--timeout", "--lcm-url"}, {});
-  if (const auto status = CheckUsage(args, kUsage, 2)) return *status;
+  CommandLine args("agvcal-recording");
+  Declare(&args);
+  if (const auto status = args.Parse(argc, argv, 1)) return *status;
   const std::string& command = args.positional[0];
   const std::string& path = args.positional[1];
   if (command == "repair") return Repair(path);
