@@ -274,28 +274,7 @@ ResidualStats DashboardModel::Stats(int component) const {
 }
 
 Histogram DashboardModel::ResidualHistogram(int component, int bins, double range) const {
-  Histogram h;
-  bins = std::max(bins, 1);
-  h.counts.assign(bins, 0);
-  if (range <= 0) range = Stats(component).max_abs;
-  if (range <= 0) range = 1e-9;  // all zero (or none): one tiny central range
-  h.lo = -range;
-  h.hi = range;
-  const double width = (h.hi - h.lo) / bins;
-  for (const ResidualPoint& p : residuals_) {
-    if (p.outlier) continue;
-    const double e = p.error[component];
-    int bin = static_cast<int>(std::floor((e - h.lo) / width));
-    if (bin < 0) {
-      ++h.below;
-      bin = 0;
-    } else if (bin >= bins) {
-      if (e > h.hi) ++h.above;
-      bin = bins - 1;  // the upper edge itself belongs to the last bin
-    }
-    ++h.counts[bin];
-  }
-  return h;
+  return SymmetricHistogram(ResidualSeries(component), bins, range);
 }
 
 }  // namespace calib

@@ -13,6 +13,8 @@
 #include "agvcal/pose2d_t.hpp"
 #include "agvcal/wheel_state_t.hpp"
 #include "calib/io/messages.h"
+#include "sim/lidar3d_model.h"
+#include "sim/wheel_physics.h"
 
 namespace calib {
 
@@ -21,34 +23,6 @@ namespace {
 constexpr double kGravity = 9.80665;
 
 int64_t PeriodUs(double rate_hz) { return rate_hz > 0 ? std::llround(1e6 / rate_hz) : 0; }
-
-// True steering angle dynamics of one wheel (spec/effects.md: steering_lag,
-// steering_backlash act between the encoder and the wheel).
-struct WheelState {
-  double phi = 0.0;           // true accumulated rotation, rad
-  double omega = 0.0;         // actual angular speed, rad/s
-  double rolling_speed = 0.0; // r * omega over the previous physics step, m/s
-  double steer_reading = 0.0; // raw steering encoder angle (actuator position), rad
-  double steer_lagged = 0.0;  // reading after the steering lag, rad
-  // steering_backlash: sign(last steering motion); none yet, so the wheel sits at the
-  // reading until the steering first moves (the side of the play is unknown before).
-  double last_motion_sign = 0.0;
-  double omega_target = 0.0, steer_target = 0.0;  // setpoints in force (after any ramp)
-  double omega_from = 0.0, steer_from = 0.0;      // commands.between ramp: setpoints when the command came
-};
-
-// One step of a first-order lag towards `target`, held over the step: the exact solution, its
-// value at the step's end (returned) and its mean over the step (`mean`), which is what moves
-// the robot during the step.
-double StepFirstOrderLag(double from, double target, double dt, double tau, double* mean) {
-  const double decay = std::exp(-dt / tau);
-  *mean = target + (from - target) * (tau / dt) * (1.0 - decay);
-  return target + (from - target) * decay;
-}
-
-bool Inside(const std::optional<std::array<double, 4>>& region, const Pose2& p) {
-  return !region || (p.x >= (*region)[0] && p.x <= (*region)[2] && p.y >= (*region)[1] && p.y <= (*region)[3]);
-}
 
 }  // namespace
 
@@ -86,16 +60,6 @@ struct Simulator::State {
     return Interpolate(a.second, b.second, s);
   }
 };
-
-Eigen::Matrix3d Lidar3dRotation(const Mount3d& mount, const Lidar3dSensorConfig& sensor, double angle) {
-  // R = Ry(axis_pitch) Rx(axis_roll) Rz(angle) Rz(yaw) Ry(pitch) Rx(roll); no turret: the mount.
-  return (Eigen::AngleAxisd(sensor.turret_axis_pitch, Eigen::Vector3d::UnitY()) *
-          Eigen::AngleAxisd(sensor.turret_axis_roll, Eigen::Vector3d::UnitX()) *
-          Eigen::AngleAxisd(angle + mount.yaw, Eigen::Vector3d::UnitZ()) *
-          Eigen::AngleAxisd(mount.pitch, Eigen::Vector3d::UnitY()) *
-          Eigen::AngleAxisd(mount.roll, Eigen::Vector3d::UnitX()))
-      .toRotationMatrix();
-}
 
 Simulator::Simulator(SimConfig config) : config_(std::move(config)), state_(new State) {
   State& s = *state_;
@@ -184,63 +148,10 @@ void Simulator::StepPhysics(double dt) {
 
   std::vector<double> effective_omega(n), true_raw(n);
   for (size_t i = 0; i < n; ++i) {
-    WheelState& w = s.wheels[i];
-    const bool this_wheel_steer = fx.steering_wheel.empty() || fx.steering_wheel == roles[i];
-    // Actuation: drive_lag and steering_rate_limit. The wheel turns over the step at the lag's
-    // mean speed, not its end speed: with the end speed a lag as short as the step reads as
-    // dt e^(-dt/tau) / (1 - e^(-dt/tau)), 1.7 ms for tau 4.4 ms at a 7.2 ms step.
-    double mean_omega = w.omega_target;
-    if (fx.drive_lag_tau_s > 0) {
-      const double from = w.omega;
-      w.omega = StepFirstOrderLag(from, w.omega_target, dt, fx.drive_lag_tau_s, &mean_omega);
-    } else {
-      w.omega = w.omega_target;
-    }
-    double steer_over_step = w.steer_lagged;  // the wheel's mean angle over the step
-    if (s.steered[i]) {
-      double step = w.steer_target - w.steer_reading;
-      if (fx.steering_rate_limit_rad_s > 0 && this_wheel_steer) {
-        const double max_step = fx.steering_rate_limit_rad_s * dt;
-        step = std::clamp(step, -max_step, max_step);
-      }
-      if (step != 0.0) w.last_motion_sign = step > 0 ? 1.0 : -1.0;
-      w.steer_reading += step;
-      // Between encoder and wheel: steering_lag, steering_backlash.
-      steer_over_step = w.steer_reading;
-      if (fx.steering_lag_tau_s > 0 && this_wheel_steer)
-        w.steer_lagged = StepFirstOrderLag(w.steer_lagged, w.steer_reading, dt, fx.steering_lag_tau_s,
-                                           &steer_over_step);
-      else
-        w.steer_lagged = w.steer_reading;
-    }
-    double wheel_angle_raw = steer_over_step;
-    if (s.steered[i] && this_wheel_steer)
-      wheel_angle_raw -= w.last_motion_sign * fx.steering_backlash_width_rad / 2.0;
-    true_raw[i] = s.steered[i] ? wheel_angle_raw : 0.0;
-
-    // Rolling: wheel_eccentricity and longitudinal_slip change the contact
-    // point's speed over ground, r w (1 + A cos(phi - phase)) (1 - k a).
     const double radius = config_.true_params.at(RadiusParamName(roles[i]));
-    const double v = radius * w.omega;  // at the step's end
-    double eccentric = 1.0;
-    if (fx.eccentricity_amplitude != 0 &&
-        (fx.eccentricity_wheel.empty() || fx.eccentricity_wheel == roles[i]))
-      eccentric += fx.eccentricity_amplitude * std::cos(w.phi - fx.eccentricity_phase);
-    double slip = 0.0;  // k a v, m/s
-    if (fx.longitudinal_slip_per_accel != 0 && Inside(fx.longitudinal_slip_region, pose_) &&
-        (fx.longitudinal_slip_wheel.empty() || fx.longitudinal_slip_wheel == roles[i])) {
-      // a = d(r w)/dt. A speed change happens at the start of a step, so the
-      // distance slipped over the step, k * integral(a v dt), is k (v^2 - v_prev^2) / 2:
-      // the slip term takes the step's mean speed. (With the new speed alone a ramp of
-      // n command steps loses (1 + 1/n) times too much while accelerating, and a
-      // start-stop run does not get its slip back while braking.)
-      const double accel = (v - w.rolling_speed) / dt;
-      slip = fx.longitudinal_slip_per_accel * accel * 0.5 * (v + w.rolling_speed);
-    }
-    w.rolling_speed = v;
-    const double ground = eccentric * (radius * mean_omega - slip);
-    effective_omega[i] = ground / radius;
-    w.phi += mean_omega * dt;
+    const WheelMotion m = StepWheel(&s.wheels[i], fx, roles[i], s.steered[i], radius, pose_, dt);
+    effective_omega[i] = m.effective_omega;
+    true_raw[i] = m.true_raw;
   }
 
   // Body motion from the wheels' true motion, with the true parameters.
@@ -355,41 +266,9 @@ void Simulator::PublishScan(MessageSink* sink) {
 // CLOUD: the 3D lidar's rings, cast from the robot's pose now and the turret at `turret_angle`.
 void Simulator::PublishCloud(double turret_angle, MessageSink* sink) {
   State& s = *state_;
-  const SimConfig& cfg = config_;
-  const Lidar3dSensorConfig& L = cfg.lidar3d;
-  const Mount3d& m = cfg.true_lidar3d;
-  const Eigen::Matrix3d mount_rotation = Lidar3dRotation(m, L, turret_angle);
-  const Eigen::Matrix3d robot_rotation =
-      Eigen::AngleAxisd(pose_.theta, Eigen::Vector3d::UnitZ()).toRotationMatrix();
-  const Eigen::Vector3d origin_robot(m.x, m.y, m.z);
-  const Eigen::Vector3d origin_world =
-      Eigen::Vector3d(pose_.x, pose_.y, 0.0) + robot_rotation * origin_robot;
-  agvcal::point_cloud_t msg{};
+  agvcal::point_cloud_t msg = SimulateCloud(s.world, config_.lidar3d, config_.true_lidar3d, pose_,
+                                            turret_angle, &s.rng_cloud, &s.normal);
   msg.utime = utime_;
-  for (int ring = 0; ring < L.rings; ++ring) {
-    const double elevation =
-        L.rings == 1 ? L.elevation_min_rad
-                     : L.elevation_min_rad +
-                           ring * (L.elevation_max_rad - L.elevation_min_rad) / (L.rings - 1);
-    for (int k = 0; k < L.points_per_ring; ++k) {
-      const double azimuth = -M_PI + 2.0 * M_PI * k / L.points_per_ring;
-      const Eigen::Vector3d dir_sensor(std::cos(elevation) * std::cos(azimuth),
-                                       std::cos(elevation) * std::sin(azimuth),
-                                       std::sin(elevation));
-      const Eigen::Vector3d dir_robot = mount_rotation * dir_sensor;
-      double range = std::min(
-          s.world.CastRay3d(origin_world, robot_rotation * dir_robot, L.range_max),
-          CastRayBox(L.body, origin_robot, dir_robot, L.range_max));
-      const double noise = L.range_noise * s.normal(s.rng_cloud);
-      if (range == kNoHit) continue;
-      range += noise;
-      const Eigen::Vector3f p = (dir_sensor * range).cast<float>();
-      msg.xyz.push_back({p.x(), p.y(), p.z()});
-      msg.ring.push_back(static_cast<int16_t>(ring));
-    }
-  }
-  msg.npoints = msg.nring = static_cast<int32_t>(msg.xyz.size());
-  msg.nintensity = 0;
   sink->Publish(kCloudChannel, utime_, Encode(msg));
   s.next_cloud += s.cloud_period;
 }

@@ -31,6 +31,7 @@
 #include "agvcal/calib_residual_t.hpp"
 #include "agvcal/commander_status_t.hpp"
 #include "agvcal/heartbeat_t.hpp"
+#include "calib/live/histogram.h"
 
 namespace calib {
 
@@ -92,14 +93,6 @@ struct ResidualPoint {
   std::array<double, 3> error{};  // x, y (m), yaw (rad)
   double chi2 = 0;
   bool outlier = false;
-};
-
-// Counts of one component's residuals in `bins` equal bins over [lo, hi];
-// values outside land in the first or last bin (`below`/`above` count them).
-struct Histogram {
-  double lo = 0, hi = 0;
-  std::vector<int> counts;
-  int below = 0, above = 0;
 };
 
 struct ResidualStats {
