@@ -14,8 +14,9 @@ runs one agvcal command with a time limit, and sorts the outcome into one of
 and prints one row per case and the counts. Exit status 0 when every case is ok.
 
 A case is a row of CASES: class, name, a function making the inputs in a scratch folder and
-returning the command, the expected exit status and the words stderr must hold. Other classes
-(result paths, live faults) are added as rows of their own.
+returning the command, the expected exit status, the words stderr must hold and, for result
+paths, a check afterwards that nothing was destroyed. Live faults are
+tests/e2e's (group_kill, group_hostile, group_full_disk).
 """
 import argparse
 import math
@@ -268,6 +269,70 @@ def case_torn_end(tmp):
     return solve(ROBOT, os.path.join(tmp, 'in.log'), tmp), 0, ['skipped', 'cut short', 'lacks what was logged after']
 
 
+# --- result paths: an output option must never destroy an input or a user's file -------------
+# make(tmp) may return a fourth element: check() after the run, the outcome when the damage
+# happened anyway (the recording overwritten, the user's file gone), else None.
+
+def sha(path):
+    import hashlib
+    return hashlib.sha256(open(path, 'rb').read()).hexdigest()
+
+
+def unchanged(path, digest, outcome='silently wrong'):
+    return lambda: None if os.path.isfile(path) and sha(path) == digest else outcome
+
+
+def case_out_is_input(link):
+    def make(tmp):
+        log = os.path.join(tmp, 'run.log')
+        shutil.copyfile(LOG, log)
+        out = log
+        if link == 'hard':
+            out = os.path.join(tmp, 'hard.json')
+            os.link(log, out)
+        elif link == 'symbolic':
+            out = os.path.join(tmp, 'link.json')
+            os.symlink(log, out)
+        return ['solve', ROBOT, log, '--quiet', '--out', out], 2, ['is the input'], unchanged(log, sha(LOG))
+    return make
+
+
+def case_write_robot_is_robot(tmp):
+    robot = os.path.join(tmp, 'robot.yaml')
+    shutil.copyfile(ROBOT, robot)
+    return ['solve', robot, LOG, '--quiet', '--write-robot', robot], 2, ['is the input'], \
+        unchanged(robot, sha(ROBOT))
+
+
+def case_out_fifo(tmp):
+    path = fifo(os.path.join(tmp, 'result.fifo'))
+    got = []
+    threading.Thread(target=lambda: got.append(open(path, 'rb').read()), daemon=True).start()
+
+    def check():
+        time.sleep(0.2)
+        import stat
+        if not stat.S_ISFIFO(os.lstat(path).st_mode):
+            return 'silently wrong'  # the FIFO replaced by a regular file
+        return None if got and got[0].lstrip().startswith(b'{') else 'partial'
+    return ['solve', ROBOT, LOG, '--quiet', '--out', path], 0, [], check
+
+
+def case_user_partial(tmp):
+    mine = os.path.join(tmp, 'RESULT.json.partial')
+    open(mine, 'w').write('the user\'s own file\n')
+    return solve(ROBOT, LOG, tmp), 0, [], unchanged(mine, sha(mine))
+
+
+def case_report_user_file(tmp):
+    report = os.path.join(tmp, 'report')
+    os.mkdir(report)
+    mine = os.path.join(report, 'my_plot.svg')
+    open(mine, 'w').write('<svg/>\n')
+    return ['solve', ROBOT, LOG, '--quiet', '--report', report], 2, ['my_plot.svg', 'was not written by agvcal'], \
+        unchanged(mine, sha(mine))
+
+
 # A case marked OPEN is a known gap (docs/bad-input.md says which): run and shown, its outcome
 # counted apart ("open"), not failing the run.
 OPEN = 'open'
@@ -306,6 +371,13 @@ CASES = [
     ('robot file: size', 'sim config: 200,000-deep [ nest', case_yaml_text(DEEP, ['nested more than'], 'sim')),
     ('robot file: file', 'ROBOT.yaml is /dev/zero', case_device_robot),
     ('robot file: file', 'ROBOT.yaml is a FIFO without a writer', case_fifo_robot),
+    ('result paths', '--out names the recording', case_out_is_input('same')),
+    ('result paths', '--out a hard link to the recording', case_out_is_input('hard')),
+    ('result paths', '--out a symbolic link to the recording', case_out_is_input('symbolic')),
+    ('result paths', '--write-robot names the robot file', case_write_robot_is_robot),
+    ('result paths', '--out a FIFO (a reader waiting)', case_out_fifo),
+    ('result paths', "the user's RESULT.json.partial beside --out", case_user_partial),
+    ('result paths', "--report into a folder with the user's own file", case_report_user_file),
 ]
 
 OUTCOMES = ['ok', 'crash', 'hang', 'silently wrong', 'partial', 'unclear']
@@ -314,7 +386,7 @@ OUTCOMES = ['ok', 'crash', 'hang', 'silently wrong', 'partial', 'unclear']
 def run_case(agvcal, make):
     tmp = tempfile.mkdtemp(prefix='hostile_')
     try:
-        args, want, words = make(tmp)
+        args, want, words, *check = make(tmp)
         start = time.monotonic()
         try:
             p = subprocess.run([agvcal] + args, cwd=SRC, capture_output=True, timeout=TIME_LIMIT_S)
@@ -352,6 +424,8 @@ def run_case(agvcal, make):
                     outcome = 'crash'
         if outcome == 'ok' and args[0] == 'info' and 'piped' in args[1] and b'WHEELS' not in p.stdout:
             outcome = 'partial'
+        if outcome == 'ok' and check:
+            outcome = check[0]() or 'ok'
         return outcome, code, seconds, first
     finally:
         shutil.rmtree(tmp, ignore_errors=True)

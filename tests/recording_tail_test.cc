@@ -70,16 +70,35 @@ TEST(RecordingTailTest, ATornLastEventIsCutSoThatWhatIsAppendedReads) {
   }
 }
 
-TEST(RecordingTailTest, WithoutTheCutTheAppendedEventsDoNotRead) {
+// Without the cut the appended events still read, but only because the reader skips the torn
+// event to them and says so: the cut leaves nothing to skip.
+TEST(RecordingTailTest, WithoutTheCutTheReaderHasToSkipTheTornEvent) {
   const std::vector<char> source = Bytes(ThreeEvents("source.log"));
   const std::string path = ThreeEvents("uncut.log");
   Append(path, source, 40);
   Append(path, source, source.size());
-  EXPECT_THROW(Channels(path), InputError);
+  {
+    LogReader reader(path);
+    LogEvent event;
+    while (reader.Next(&event)) {
+    }
+    EXPECT_EQ(reader.skips().size(), 1u);
+  }
+  const std::string cut = ThreeEvents("cut.log");
+  Append(cut, source, 40);
+  CutToLastWholeEvent(cut);
+  Append(cut, source, source.size());
+  LogReader reader(cut);
+  LogEvent event;
+  int events = 0;
+  while (reader.Next(&event)) ++events;
+  EXPECT_EQ(events, 6);
+  EXPECT_TRUE(reader.skips().empty());
 }
 
-// Corruption before the end is not a torn tail: reported, and the file is not cut.
-TEST(RecordingTailTest, CorruptionBeforeTheEndIsAnErrorAndNothingIsCut) {
+// Damage before the end is not a torn tail: the reader skips it where it reads, and the cut
+// takes nothing but a torn tail, so no whole event after the damage is lost.
+TEST(RecordingTailTest, DamageBeforeTheEndIsNotCut) {
   const std::string path = ThreeEvents("corrupt.log");
   std::vector<char> bytes = Bytes(path);
   bytes[0] = 0;  // the first event's sync word
@@ -87,7 +106,8 @@ TEST(RecordingTailTest, CorruptionBeforeTheEndIsAnErrorAndNothingIsCut) {
     std::ofstream out(path, std::ios::binary | std::ios::trunc);
     out.write(bytes.data(), static_cast<std::streamsize>(bytes.size()));
   }
-  EXPECT_THROW(CutToLastWholeEvent(path), InputError);
+  const RecordingTail tail = CutToLastWholeEvent(path);
+  EXPECT_EQ(tail.whole_end, bytes.size());
   EXPECT_EQ(std::filesystem::file_size(path), bytes.size());
 }
 

@@ -301,7 +301,7 @@ std::string SolveReportSummary(const CalibrationResult& r, const std::string& lo
 
 void WriteSolveReportDir(const RobotDescription& robot, const CalibrationResult& r, const std::string& log_path,
                          int64_t t0, const std::string& dir) {
-  PrepareReportDir(dir);
+  MakeReportDir(dir);
   const std::string summary = SolveReportSummary(r, log_path);
   WriteFileAtomically(dir + "/summary.txt", summary);
   ReportPage page("agvcal solve: " + std::string(DriveTypeName(robot.drive)) + " drive");
@@ -317,7 +317,7 @@ namespace calib {
 
 void WriteRecalReportDir(const CalibrationInUse& start, const RecalRun& run, const std::string& log_path,
                          int64_t t0, const std::string& dir) {
-  PrepareReportDir(dir);
+  MakeReportDir(dir);
   std::ostringstream s;
   s << "agvcal recal " << log_path << "\n" << run.segments << " segments (" << run.dropped << " dropped as too short, "
     << run.waiting << " waiting for a decision), " << run.decisions.size() << " decisions.\n";

@@ -2,6 +2,7 @@
 
 #include <sys/stat.h>
 
+#include <algorithm>
 #include <cmath>
 #include <optional>
 #include <stdexcept>
@@ -184,10 +185,20 @@ CalibrationResult SolveLog(const RobotDescription& robot, const std::string& log
                      std::to_string(count) + " " + MotionSourceName(source) +
                      (source == MotionSource::kImu ? " samples" : " motions") + "; calibrating");
   }
-  CalibrationResult result =
-      source == MotionSource::kImu
-          ? ToCalibrationResult(robot, CalibrateWithImu(robot, data.wheels(), data.imu(), options.imu, log_path))
-          : Calibrate(robot, data.wheels(), data.motions(), source, options.calibration, log_path);
+  CalibrationResult result;
+  try {
+    result = source == MotionSource::kImu
+                 ? ToCalibrationResult(robot, CalibrateWithImu(robot, data.wheels(), data.imu(), options.imu, log_path))
+                 : Calibrate(robot, data.wheels(), data.motions(), source, options.calibration, log_path);
+  } catch (const InputError& e) {
+    // Too little data where the reader skipped part of the recording (a torn or cut-short log):
+    // the skip is the cause to name, not only the count it left.
+    const std::vector<std::string>& notes = data.drop_notes();
+    const auto skip = std::find_if(notes.begin(), notes.end(),
+                                   [](const std::string& note) { return note.find(" skipped (") != std::string::npos; });
+    if (skip == notes.end() || e.file() != log_path) throw;
+    throw InputError(e.file(), e.place(), e.problem() + "; the reader left out part of it: " + *skip);
+  }
   if (SolvesAgainDeskewed(source, options.calibration, result)) {
     // Match again, de-skewed with the calibrated model on the wheel clock (recording_input.h).
     if (options.progress) options.progress("matching the scans again, de-skewed with the calibrated model and offset");

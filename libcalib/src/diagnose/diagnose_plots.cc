@@ -238,7 +238,7 @@ void AddTables(const DiagnoseReport& r, const Clock& sec, ReportPage* page) {
 }  // namespace
 
 void WriteDiagnoseReportDir(const DiagnoseReport& r, const std::string& dir) {
-  PrepareReportDir(dir);
+  MakeReportDir(dir);
   const Clock sec{ReportTimeOrigin(r)};
   ReportPage page("agvcal diagnose: " + r.verdict);
   const std::string summary = DiagnoseSummaryText(r);

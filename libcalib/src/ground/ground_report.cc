@@ -100,7 +100,7 @@ std::vector<std::vector<std::string>> SectorRows(const GroundResult& r) {
 
 void WriteGroundReportDir(const RobotDescription& robot, const GroundResult& r, const GroundInput& input,
                           const std::string& dir) {
-  PrepareReportDir(dir);
+  MakeReportDir(dir);
   const std::string summary = GroundResultText(r, input);
   WriteFileAtomically(dir + "/summary.txt", summary);
   ReportPage page("agvcal ground: the 3D lidar above the floor");

@@ -374,6 +374,13 @@ void PrepareReportDir(const std::string& dir, const std::string& option) {
   if (ec) throw InputError(dir, option, "cannot read the folder: " + ec.message());
 }
 
+void MakeReportDir(const std::string& dir) {
+  PrepareReportDir(dir);
+  std::error_code ec;
+  std::filesystem::create_directories(dir, ec);
+  if (ec) throw InputError(dir, "--report", "cannot make the folder: " + ec.message());
+}
+
 void CheckOutputs(const std::vector<std::string>& inputs, const std::vector<OutputTarget>& outputs) {
   for (std::size_t i = 0; i < outputs.size(); ++i) {
     const OutputTarget& out = outputs[i];

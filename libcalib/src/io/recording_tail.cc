@@ -20,7 +20,7 @@ RecordingTail FindLastWholeEvent(const std::string& path) {
   LogReader reader(path);
   LogEvent event;
   // NextComplete stops before an event the file holds only part of, as it does for a log
-  // still being written; anything corrupt before that throws.
+  // still being written; damage before that is skipped by the reader, never cut.
   while (reader.NextComplete(&event)) {
     ++tail.whole_events;
     tail.whole_end = event.offset + kEventHeaderBytes + event.channel.size() + event.data.size();

@@ -43,6 +43,10 @@ void CheckWritableFile(const std::string& path, const std::string& option);
 // not agvcal's (exit 2). Changes nothing in DIR.
 void PrepareReportDir(const std::string& dir, const std::string& option = "--report");
 
+// What a report writer calls first: PrepareReportDir, then DIR made if it is missing, so a
+// writer called directly (not into Outputs' staged folder) writes into a folder that exists.
+void MakeReportDir(const std::string& dir);
+
 // One output file written whole or not at all: a regular (or new) file is written to a
 // temporary beside it (beside a symbolic link's target), which Commit() renames over it; a
 // FIFO or a device is written in place. Without Commit() the temporary is removed and the
