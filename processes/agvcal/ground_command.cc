@@ -53,6 +53,9 @@ int Ground(int argc, char** argv) {
   calib::GroundInput input;
   const calib::GroundResult result = calib::CalibrateGroundFile(
       robot, options, args.positional[1], !args.Has("--no-grid"), &input);
+  for (const std::string& note : input.drop_notes) std::cerr << "agvcal ground: left out: " << note << "\n";
+  if (input.dropped > static_cast<int64_t>(input.drop_notes.size()))
+    std::cerr << "agvcal ground: left out: " << input.dropped << " messages in all\n";
   calib::Outputs outputs;  // put in place together, only when all were written
   if (args.Has("--out")) outputs.WriteFile(args.Get("--out", ""), calib::GroundResultJson(result, input));
   if (args.Has("--write-robot"))

@@ -6,9 +6,10 @@
 source "$(dirname "$0")/lib.bash" "$@"
 robot=config/robots/forklift.yaml
 GROUND=$BUILD/agvcal-ground
-sim_config() {  # sim_config PITCH OUT: the forklift standing or driving, its 3D lidar on
+sim_config() {  # sim_config PITCH OUT [START_UTIME]: the forklift standing or driving, its 3D lidar on
   cat >"$2" <<EOF
 robot: $SRC/config/robots/forklift.yaml
+start_utime: ${3:-1700000000000000}
 truth:
   lidar3d: {z: 1.912, pitch: $1, roll: -0.012}
 sensors:
@@ -86,9 +87,16 @@ expect_status 3 "no floor in view" "$AGVCAL" ground $robot "$TMP/walls.pcd" --ou
 stderr_has "cannot determine"; stderr_has "not visible enough"
 [ -e "$TMP/walls.json" ] || compgen -G "$TMP/walls.json*.partial" >/dev/null && fail "a result file was left" || pass "no result file when refused"
 # The robot drives onto a ramp halfway: the lidar's pitch against the floor changes by 1.4 deg.
-sim_config 0.06 "$TMP/ramp.yaml"
+# (the second half recorded after the first, 1000 s later: a recording's stamps go forward)
+sim_config 0.06 "$TMP/ramp.yaml" 1700001000000000
 "$AGVCAL" simulate "$TMP/ramp.yaml" "$TMP/ramp_half.log" --trajectory demo --quiet
 cat "$TMP/clouds.log" "$TMP/ramp_half.log" >"$TMP/ramp.log"
+# Concatenated as recorded (the second half's stamps start again): its clouds are out of order,
+# left out and said, never silently.
+cat "$TMP/clouds.log" "$TMP/clouds.log" >"$TMP/twice.log"
+"$AGVCAL" ground $robot "$TMP/twice.log" >/dev/null 2>"$TMP/twice.err"
+grep -q "left out: .*(CLOUD)" "$TMP/twice.err" && pass "clouds out of order are said" ||
+  fail "clouds out of order left out without a word: $(head -3 "$TMP/twice.err")"
 expect_status 3 "a floor that tilts between frames" "$AGVCAL" ground $robot "$TMP/ramp.log"
 stderr_has "not one level plane across frames"; stderr_has "slope"
 

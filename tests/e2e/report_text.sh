@@ -2,7 +2,7 @@
 # What a person reads (offline commands): units on printed numbers (solve's table, diagnose's
 # summary), p-values never "p = 0", progress without carriage returns into a file, result and
 # report paths checked before the analysis (exit 2 naming the path), a reused report folder
-# without the last run's figures, and diagnose refusing a straight-only recording as solve does.
+# replaced whole or, holding the user's files, refused, and diagnose refusing a straight-only recording as solve does.
 source "$(dirname "$0")/lib.bash" "$@"
 robot=config/robots/forklift.yaml
 log=logs/forklift_demo.log
@@ -64,13 +64,19 @@ stderr_has "$TMP/a_file/report"
 expect_status 2 "--out in a missing folder" "$AGVCAL" solve $robot $log --out "$TMP/none/r.json" --quiet
 stderr_has "$TMP/none/r.json"
 
-# A reused report folder: the last run's figures are gone, other files stay.
+# A reused report folder: agvcal's own earlier report is replaced whole (its manifest lists
+# every file it wrote); a folder holding anything else (the user's notes, a figure agvcal did
+# not write) is refused, exit 2 naming the file, and nothing in it is touched.
+expect_status 0 "diagnose into its own earlier report" "$AGVCAL" diagnose $robot $log --quiet --report "$TMP/report"
+[ -e "$TMP/report/residual_time.svg" ] && [ -e "$TMP/report/.agvcal-report" ] && pass "the earlier report replaced" ||
+  fail "report folder: $(ls -A "$TMP/report")"
 echo '<svg/>' >"$TMP/report/signature_9_stale.svg"
 echo 'mine' >"$TMP/report/notes.md"
-expect_status 0 "diagnose into a used report folder" "$AGVCAL" diagnose $robot $log --quiet --report "$TMP/report"
-if [ ! -e "$TMP/report/signature_9_stale.svg" ] && [ -e "$TMP/report/notes.md" ] && [ -e "$TMP/report/residual_time.svg" ]; then
-  pass "stale figure removed, the user's file kept"
-else fail "report folder: $(ls "$TMP/report")"; fi
+expect_status 2 "diagnose into a report folder with the user's files" "$AGVCAL" diagnose $robot $log --quiet --report "$TMP/report"
+stderr_has "was not written by agvcal"
+if [ -e "$TMP/report/signature_9_stale.svg" ] && [ "$(cat "$TMP/report/notes.md")" = mine ] && [ -e "$TMP/report/residual_time.svg" ]; then
+  pass "the user's files and the earlier report untouched"
+else fail "report folder: $(ls -A "$TMP/report")"; fi
 
 # A straight-only recording: diagnose refuses like solve (exit 3), naming what and the motion.
 "$AGVCAL" simulate config/sims/diff_robot.yaml "$TMP/straight.log" --trajectory straight --quiet

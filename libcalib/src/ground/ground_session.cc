@@ -129,6 +129,8 @@ GroundResult CalibrateGroundFile(const RobotDescription& robot, const GroundOpti
   session.Subscribe(&source);
   source.HandleAll();
   info.clouds = session.clouds();
+  info.dropped = source.dropped();
+  info.drop_notes = source.drop_notes();
   if (input) *input = info;
   if (session.clouds() == 0)
     throw InputError(path, "", "no messages on channel " + session.cloud_channel() +

@@ -78,6 +78,10 @@ struct GroundInput {
   std::string kind;      // "log", "pcd" or "kitti"
   int clouds = 0;
   size_t points = 0;     // finite points read (cloud files)
+  // Messages the recording's reader left out (a stamp out of order, a torn event), and the
+  // first notes naming them: the command says them, so no cloud is lost without a word.
+  int64_t dropped = 0;
+  std::vector<std::string> drop_notes;
 };
 
 // Runs the calibration over a recording (lcm-logger) or a cloud file (.pcd,
