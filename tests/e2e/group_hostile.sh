@@ -52,18 +52,7 @@ grep -q "running; 1 bad message skipped" "$TMP/states" && pass "the solver's HEA
   fail "solver HEARTBEAT states: $(sort -u "$TMP/states" | head -5)"
 
 # Every scan's angle_increment (after the hash, utime and angle_min) NaN.
-python3 - $log "$TMP/noscan.log" <<'PY'
-import struct, sys
-data = bytearray(open(sys.argv[1], 'rb').read())
-pos = 0
-while pos + 28 <= len(data):
-    _, _, _, channel_len, data_len = struct.unpack('>IqqII', data[pos:pos + 28])
-    start = pos + 28 + channel_len
-    if data[pos + 28:start] == b'SCAN':
-        struct.pack_into('>I', data, start + 20, 0x7fc00000)
-    pos = start + data_len
-open(sys.argv[2], 'wb').write(data)
-PY
+python3 tests/tools/corrupt_log.py $log "$TMP/noscan.log" SCAN all 20 =0x7fc00000
 group noscan "$TMP/noscan.log"; code=$?
 [ "$code" -ne 0 ] && pass "no usable scan: the group fails (exit $code)" || fail "no usable scan: group exit 0"
 [ ! -e "$TMP/noscan/RESULT.json" ] && pass "no RESULT.json" || fail "a RESULT.json: $(head -c 300 "$TMP/noscan/RESULT.json")"

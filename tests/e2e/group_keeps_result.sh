@@ -13,18 +13,7 @@ mkdir -p "$run"
 "$AGVCAL" solve "$robot" "$log" --quiet --out "$run/RESULT.json" >/dev/null || fail "the previous calibration"
 previous=$(sha256sum <"$run/RESULT.json")
 
-python3 - $log "$TMP/noscan.log" <<'PY'
-import struct, sys
-data = bytearray(open(sys.argv[1], 'rb').read())
-pos = 0
-while pos + 28 <= len(data):
-    _, _, _, channel_len, data_len = struct.unpack('>IqqII', data[pos:pos + 28])
-    start = pos + 28 + channel_len
-    if data[pos + 28:start] == b'SCAN':
-        struct.pack_into('>I', data, start + 20, 0x7fc00000)
-    pos = start + data_len
-open(sys.argv[2], 'wb').write(data)
-PY
+python3 tests/tools/corrupt_log.py $log "$TMP/noscan.log" SCAN all 20 =0x7fc00000
 group() {  # group NAME RECORDING: the replay through the group, into the one run directory
   scripts/netns-run scripts/agvcal-group --replay "$2" --robot "$robot" --speed 2 \
     --run-dir "$run" --log "$TMP/$1.recording.log" >"$TMP/$1.out" 2>&1
