@@ -516,6 +516,20 @@ TEST_F(RouteDecisionTest, DecisionLogAndRobotFile) {
   std::remove(log.c_str());
 }
 
+// An accepted decision whose line cannot be written leaves the robot file as it was: the two
+// outputs are put in place together or not at all.
+TEST_F(RouteDecisionTest, RobotFileAndDecisionLineAreWrittenTogetherOrNeither) {
+  const std::string robot_out = TempPath("together.yaml");
+  const std::string unwritable_log = TempPath("no-such-folder") + "/decisions.jsonl";
+  std::remove(robot_out.c_str());
+  const CalibrationInUse nominal = CalibrationFromRobot(sim().robot, MotionSource::kPose, config_);
+  const RecalDecision accepted = Decide(batch(0), nominal, MotionSource::kPose, config_);
+  ASSERT_EQ(accepted.verdict, Verdict::kAccepted);
+  EXPECT_THROW(RecordDecision(accepted, robot_out, unwritable_log), InputError);
+  std::ifstream robot_file(robot_out);
+  EXPECT_FALSE(robot_file.good()) << "the robot file was written without its decision line";
+}
+
 // --- Nothing is ever written half.
 
 TEST(AtomicFilesTest, ReadersSeeWholeFilesOnly) {

@@ -651,12 +651,16 @@ std::string DecisionJson(const RecalDecision& d) {
 
 void RecordDecision(const RecalDecision& d, const std::string& robot_out,
                     const std::string& decisions_path) {
+  // Both or neither: an accepted robot file without its decision line (or the line without
+  // the file) would leave the two disagreeing about the calibration in use.
+  Outputs outputs;
   if (d.verdict == Verdict::kAccepted && !robot_out.empty()) {
     std::string source = "recalibration decision " + std::to_string(d.number) + ", segments";
     for (const Segment& s : d.fit) source += " " + std::to_string(s.index);
-    WriteFileAtomically(robot_out, CalibratedRobotYaml(d.in_use.robot, *d.fit_result, source, "recal"));
+    outputs.WriteFile(robot_out, CalibratedRobotYaml(d.in_use.robot, *d.fit_result, source, "recal"));
   }
-  if (!decisions_path.empty()) AppendFileAtomically(decisions_path, DecisionJson(d) + "\n");
+  if (!decisions_path.empty()) outputs.AppendFile(decisions_path, DecisionJson(d) + "\n");
+  outputs.Commit();
 }
 
 RecalRun RecalibrateLog(const RobotDescription& scan_robot, const CalibrationInUse& start,

@@ -328,11 +328,17 @@ void WriteFileAtomically(const std::string& path, const std::string& text) {
   outputs.Commit();
 }
 
-void AppendFileAtomically(const std::string& path, const std::string& text) {
+void Outputs::AppendFile(const std::string& path, const std::string& text) {
   std::string existing;
   std::error_code ec;
   if (fs::is_regular_file(path, ec)) existing = ReadWhole(path);  // never read a FIFO: it would wait
-  WriteFileAtomically(path, existing + text);
+  WriteFile(path, existing + text);
+}
+
+void AppendFileAtomically(const std::string& path, const std::string& text) {
+  Outputs outputs;
+  outputs.AppendFile(path, text);
+  outputs.Commit();
 }
 
 void CheckWritableFile(const std::string& path, const std::string& option) {

@@ -222,8 +222,9 @@ RecalDecision Decide(const SegmentBatch& batch, const CalibrationInUse& in_use,
 std::string DecisionJson(const RecalDecision& decision);
 
 // Writes the outcome: on acceptance the robot file `robot_out` (the in-use robot file with the
-// new values, std: and source:), then appends the decision's line to `decisions_path`; each
-// atomically. An empty path is skipped.
+// new values, std: and source:), and appends the decision's line to `decisions_path`; both
+// written before either is put in place, so a failure (a full disk) changes neither. An empty
+// path is skipped.
 void RecordDecision(const RecalDecision& decision, const std::string& robot_out,
                     const std::string& decisions_path);
 

@@ -91,6 +91,8 @@ class Outputs {
 
   // Writes `text` to a temporary for `path` now (a FIFO or device: kept until Commit).
   void WriteFile(const std::string& path, const std::string& text);
+  // WriteFile with PATH's present content (if it is a regular file) followed by `text`.
+  void AppendFile(const std::string& path, const std::string& text);
   // A new empty folder beside `dir` to write the report into; Commit() swaps it in for `dir`.
   std::string ReportDir(const std::string& dir);
   void Commit();
