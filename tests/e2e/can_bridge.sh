@@ -21,16 +21,9 @@ else
   fail "wheel states differ from the recording's"
 fi
 
-cat > "$TMP/run.sh" <<RUN
-set -u
-lcm-logger -f "$TMP/live.log" -c WHEELS > /dev/null & logger=\$!
-sleep 0.5
-"$bridge" "$config" --candump "$TMP/forklift.candump" --speed 4; status=\$?
-sleep 1
-kill -INT \$logger; wait \$logger
-exit \$status
-RUN
-expect_status 0 "replay at x4 on the bus" timeout 120 scripts/netns-run bash "$TMP/run.sh"
+start_logger "$TMP/live.log" WHEELS
+expect_status 0 "replay at x4 on the bus" timeout 120 "$bridge" "$config" --candump "$TMP/forklift.candump" --speed 4
+stop_logger "$TMP/live.log"
 if "$BUILD/tests/bridge_check" wheels "$log" "$TMP/live.log" 10 50 >/dev/null; then
   pass "the bus carried the same wheel states"
 else

@@ -21,39 +21,59 @@ wait_for() {
   for _ in \$(seq \$((\$3 * 10))); do cap "\$1"; grep -qE -- "\$2" "$TMP/\$1.txt" && return 0; sleep 0.1; done
   echo "timed out waiting for '\$2'" >> "$TMP/run.err"; return 1
 }
+# wait_until_gone NAME REGEX SECONDS: captures into NAME until the screen no longer matches REGEX
+wait_until_gone() {
+  for _ in \$(seq \$((\$3 * 10))); do cap "\$1"; grep -qE -- "\$2" "$TMP/\$1.txt" || return 0; sleep 0.1; done
+  echo "timed out waiting for '\$2' to go" >> "$TMP/run.err"; return 1
+}
+# wait_changed NAME EARLIER SECONDS: captures into NAME until the screen differs from EARLIER's
+wait_changed() {
+  for _ in \$(seq \$((\$3 * 10))); do cap "\$1"; cmp -s "$TMP/\$1.txt" "$TMP/\$2.txt" || return 0; sleep 0.1; done
+  echo "timed out waiting for the screen to change from \$2" >> "$TMP/run.err"; return 1
+}
 tm -f /dev/null new-session -d -s dash -x 80 -y 24 \
   "'$BUILD/agvcal-dashboard'; echo \"dashboard exit=\\\$?\"; stty -a > '$TMP/stty.txt'; exec sleep 120"
 "$BUILD/agvcal-scanmatch" "$robot" 2> "$TMP/scanmatch.err" & matcher=\$!
 "$BUILD/agvcal-solver" "$robot" --every 4 --out "$TMP/live.json" 2> "$TMP/solver.err" & solver=\$!
 "$BUILD/agvcal-commander" "$robot" --trajectory demo 2> "$TMP/commander.err" & commander=\$!
 wait_for start "agvcal dashboard" 10
-sleep 1   # everything subscribed before the replay starts
+# Everything subscribed before the replay starts: each process beats first after it has
+# subscribed, and the bus view lists the processes it has heard.
+tm send-keys -t dash 4
+wait_for start "^scanmatch .* ok\$" 20 && wait_for start "^solver .* ok\$" 20 && wait_for start "^commander .* ok\$" 20
+tm send-keys -t dash 1
 # Only the sensors (the commander sends its own DRIVE_CMD), at twice the recorded speed.
 lcm-logplayer -s 2 -e '^(WHEELS|SCAN|IMU)\$' "$log" > /dev/null & player=\$!
 wait_for live "commander running" 20 && wait_for live "Calibration: ok" 20
-tm send-keys -t dash 4; sleep 1; cap bus_live
+tm send-keys -t dash 4
+wait_for bus_live "^IMU .* ok\$" 10 && wait_for bus_live "^SCAN .* ok\$" 10 && wait_for bus_live "^WHEELS .* ok\$" 10
 wait \$player
-wait_for bus_stale "^IMU .*STALE" 8 && wait_for bus_stale "^WHEELS .*STALE" 3; sleep 0.5; cap bus_stale
+wait_for bus_stale "^IMU .*STALE" 8 && wait_for bus_stale "^WHEELS .*STALE" 3 && wait_for bus_stale "^SCAN .*STALE" 3
+# SIGINT: the matcher publishes its last matches as it stops; the solver handles what it has
+# received before its final estimate (also in live.json).
 kill -INT \$matcher; wait \$matcher
-sleep 1   # the matcher's last results reach the solver
-kill -INT \$solver; wait \$solver   # its final estimate, also in live.json
+kill -INT \$solver; wait \$solver
 tm send-keys -t dash 1
 wait_for overview "Calibration: final" 10
-tm send-keys -t dash 2; sleep 0.5; cap residuals
-tm send-keys -t dash 3; sleep 0.5; cap parameters
-tm send-keys -t dash '?'; sleep 0.5; cap help
-tm send-keys -t dash x; sleep 0.5; cap help_closed
-tm send-keys -t dash p; sleep 0.5; cap paused_a; sleep 1.5; cap paused_b
-tm send-keys -t dash p; sleep 1.5; cap resumed
-tm send-keys -t dash 2; tm resize-window -t dash -x 120 -y 40; sleep 1; cap big_residuals
-tm send-keys -t dash 1; sleep 0.5; cap big_overview
-tm resize-window -t dash -x 80 -y 24; sleep 1; cap small_again
+tm send-keys -t dash 2; wait_for residuals "\[2 residuals\]" 10
+tm send-keys -t dash 3; wait_for parameters "\[3 parameters\]" 10
+tm send-keys -t dash '?'; wait_for help "pause / resume" 10
+tm send-keys -t dash x; wait_until_gone help_closed "pause / resume" 10
+# Paused: the screen stays as it was over 1.5 s (the observation, not a wait), then resumes.
+tm send-keys -t dash p; wait_for paused_a "PAUSED" 10; sleep 1.5; cap paused_b
+tm send-keys -t dash p; wait_for resumed "LIVE" 10 && wait_changed resumed paused_b 10
+tm send-keys -t dash 2; tm resize-window -t dash -x 120 -y 40; wait_for big_residuals "^.{100,}" 10
+tm send-keys -t dash 1; wait_for big_overview "\[1 overview\].*" 10 && wait_for big_overview "^.{100,}" 10
+tm resize-window -t dash -x 80 -y 24; wait_until_gone small_again "^.{81,}" 10 && wait_for small_again "\[1 overview\]" 10
 tm send-keys -t dash q
 wait_for quit "dashboard exit=" 5
 tm display-message -p -t dash '#{alternate_on}' > "$TMP/alternate_on.txt"
 # Ctrl-C in a second window quits as cleanly.
 tm new-window -d -t dash -n ctrlc "'$BUILD/agvcal-dashboard' --stale-after 1; echo \"dashboard exit=\\\$?\"; exec sleep 120"
-sleep 2; tm send-keys -t dash:ctrlc C-c; sleep 1; tm capture-pane -p -t dash:ctrlc > "$TMP/ctrlc.txt"
+ctrlc_screen() { tm capture-pane -p -t dash:ctrlc > "$TMP/ctrlc.txt"; grep -qE -- "\$1" "$TMP/ctrlc.txt"; }
+for _ in \$(seq 100); do ctrlc_screen "agvcal dashboard" && break; sleep 0.1; done
+tm send-keys -t dash:ctrlc C-c
+for _ in \$(seq 100); do ctrlc_screen "dashboard exit=" && break; sleep 0.1; done
 tm kill-server
 kill -INT \$commander 2>/dev/null; wait \$commander
 exit 0

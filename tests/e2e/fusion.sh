@@ -7,20 +7,14 @@ source "$(dirname "$0")/lib.bash" "$@"
 robot=config/robots/imu_robot.yaml
 "$AGVCAL" simulate config/sims/imu_robot.yaml "$TMP/imu.log" --trajectory demo --quiet || fail "simulate"
 
-cat > "$TMP/run.sh" <<RUN
-set -u
-lcm-logger -f "$TMP/live.log" -c ODOM_FUSED & logger=\$!
-"$BUILD/agvcal-fusion" "$robot" 2> "$TMP/fusion.err" & fusion=\$!
-sleep 1   # both subscribed before the replay starts
-lcm-logplayer -s 4 "$TMP/imu.log"   # slower: a lost UDP message changes the fused poses
-sleep 1
-kill -INT \$fusion; wait \$fusion; status=\$?
-sleep 1   # the logger writes from a queue
-kill -INT \$logger; wait \$logger
-exit \$status
-RUN
-expect_status 0 "replay into agvcal-fusion, stopped with SIGINT" \
-  timeout 120 scripts/netns-run bash "$TMP/run.sh"
+start_logger "$TMP/live.log" ODOM_FUSED
+"$BUILD/agvcal-fusion" "$robot" 2> "$TMP/fusion.err" & fusion=$!
+# slower: a lost UDP message changes the fused poses
+wait_ready "$TMP/live.log" fusion && timeout 120 lcm-logplayer -s 4 "$TMP/imu.log"
+stop $fusion agvcal-fusion; status=$?
+stop_logger "$TMP/live.log"
+[ $status -eq 0 ] && pass "replay into agvcal-fusion, stopped with SIGINT (exit 0)" ||
+  fail "agvcal-fusion exit $status: $(tail -c 400 "$TMP/fusion.err")"
 # UDP may drop a message when a loaded machine stalls a receiver longer than its buffer
 # lasts; every later fused pose then differs. agvcal-fusion reports what it received: with
 # every message received, the poses must equal the offline ones (a difference is a bug); with

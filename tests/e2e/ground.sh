@@ -37,24 +37,19 @@ expect_status 0 "agvcal-ground through file://" \
 same_result "$TMP/offline.json" "$TMP/file.json" && pass "file:// result identical" || fail "file:// result differs"
 
 # Live: lcm-logplayer feeds agvcal-ground; GROUND_ESTIMATE and HEARTBEAT are recorded.
-cat >"$TMP/live.sh" <<EOF
-"$GROUND" $robot --grid --out "$TMP/live.json" & ground=\$!
-lcm-logger -c 'GROUND_ESTIMATE|HEARTBEAT' "$TMP/estimates.log" >/dev/null 2>&1 & logger=\$!
-sleep 1
-lcm-logplayer -s 2 "$TMP/clouds.log"
-sleep 1
-kill -INT \$ground; wait \$ground; status=\$?
-kill -INT \$logger; wait \$logger
-exit \$status
-EOF
-expect_status 0 "agvcal-ground live, fed by lcm-logplayer" timeout 120 scripts/netns-run bash "$TMP/live.sh"
+start_logger "$TMP/estimates.log" GROUND_ESTIMATE
+"$GROUND" $robot --grid --out "$TMP/live.json" & ground=$!
+wait_ready "$TMP/estimates.log" ground && timeout 120 lcm-logplayer -s 2 "$TMP/clouds.log"
+stop $ground agvcal-ground; status=$?
+stop_logger "$TMP/estimates.log"
+[ $status -eq 0 ] && pass "agvcal-ground live, fed by lcm-logplayer (exit 0)" || fail "agvcal-ground live: exit $status"
 same_result "$TMP/offline.json" "$TMP/live.json" && pass "live result identical to offline" \
   || fail "live result differs from offline (a cloud lost on the bus?): $(grep '"frames' "$TMP/live.json" | tr -d '\n')"
 clouds=$("$AGVCAL" info "$TMP/clouds.log" --json | grep -A2 '"CLOUD"' | grep -o '"count": [0-9]*' | grep -o '[0-9]*')
 estimates=$("$AGVCAL" info "$TMP/estimates.log" --json | grep -A2 '"GROUND_ESTIMATE"' | grep -o '"count": [0-9]*' | grep -o '[0-9]*')
 [ -n "$clouds" ] && [ "$clouds" = "$estimates" ] && pass "one GROUND_ESTIMATE per cloud ($clouds)" \
   || fail "GROUND_ESTIMATE count '$estimates', clouds '$clouds'"
-"$AGVCAL" info "$TMP/estimates.log" | grep -q "^HEARTBEAT" && pass "heartbeat published" || fail "no heartbeat"
+beat_seen "$TMP/estimates.log" ground && pass "heartbeat published" || fail "no heartbeat"
 
 # A KITTI frame.
 kitti=$SRC/../shared/data/kitti-velodyne-frames/raw_frame/000000.bin

@@ -14,29 +14,7 @@ group() {  # group RUN_NAME RECORDING: the replay through the group
     --run-dir "$TMP/$1" >"$TMP/$1.out" 2>&1
 }
 # The states the solver's HEARTBEAT carried, from the group's recording.
-solver_states() {
-  python3 - "$1" <<'PY'
-import struct, sys
-data = open(sys.argv[1], 'rb').read()
-pos = 0
-while pos + 28 <= len(data):
-    _, _, _, channel_len, data_len = struct.unpack('>IqqII', data[pos:pos + 28])
-    start = pos + 28 + channel_len
-    if data[pos + 28:start] == b'HEARTBEAT':
-        at = start + 16
-        def text():
-            global at
-            (n,) = struct.unpack_from('>i', data, at)
-            at += 4 + n
-            return data[at - n:at - 1].decode()
-        process = text()
-        at += 4
-        state = text()
-        if process == 'solver':
-            print(state)
-    pos = start + data_len
-PY
-}
+solver_states() { python3 tests/tools/heartbeats.py "$1" solver; }
 
 python3 tests/tools/wheel_log.py $log "$TMP/nan.log" 1000 position drive nan
 group nan "$TMP/nan.log"; code=$?

@@ -72,4 +72,37 @@ group_pid() {
   pid=$(supervisorctl -c "$1/supervisord.conf" pid "$2" 2>/dev/null)
   [[ "$pid" =~ ^[1-9][0-9]*$ ]] && echo "$pid"
 }
+# start_logger LOG CHANNELS: lcm-logger records CHANNELS (a regex) and HEARTBEAT into LOG, in
+# the background (its pid in $logger); returns once it records (agvcal-recording drain: a mark
+# it publishes is in LOG). The processes' HEARTBEATs in LOG tell when they have subscribed.
+start_logger() {
+  lcm-logger -f "$1" -c "$2|HEARTBEAT" >/dev/null 2>&1 & logger=$!
+  "$BUILD/agvcal-recording" drain "$1" --timeout 60 >/dev/null 2>&1 ||
+    { fail "lcm-logger did not record into $1 within 60 s"; return 1; }
+}
+# stop_logger LOG: everything published so far is in LOG (drained), then the logger stops.
+stop_logger() {
+  "$BUILD/agvcal-recording" drain "$1" --timeout 60 >/dev/null 2>&1 || fail "the logger of $1 did not drain within 60 s"
+  kill -INT "$logger"; wait "$logger"
+}
+# beat_seen LOG PROCESS [STATE_REGEX]: LOG holds a HEARTBEAT of PROCESS (whose state matches)
+beat_seen() { python3 "$SRC/tests/tools/heartbeats.py" "$1" "$2" | grep -qE -- "${3:-.}"; }
+# beat_now LOG PROCESS STATE_REGEX: PROCESS's last HEARTBEAT in LOG matches
+beat_now() { python3 "$SRC/tests/tools/heartbeats.py" "$1" "$2" | tail -1 | grep -qE -- "$3"; }
+# wait_ready LOG PROCESS...: waits until LOG holds a HEARTBEAT of each PROCESS; a process beats
+# first after it has subscribed, so a replay started then reaches it whole.
+wait_ready() {
+  local log=$1 process; shift
+  for process; do wait_for 60 "agvcal-$process's first HEARTBEAT (subscribed)" beat_seen "$log" "$process" || return 1; done
+}
+# stop PID NAME: SIGINT to PID and its exit status, once it has ended; a failed check naming
+# NAME if it is still running 60 s later (then killed).
+stop() {
+  kill -INT "$1" 2>/dev/null
+  ( sleep 60; kill -9 "$1" ) >/dev/null 2>&1 & local watchdog=$!
+  wait "$1"; local status=$?
+  kill "$watchdog" 2>/dev/null; wait "$watchdog" 2>/dev/null
+  [ "$status" -ne 137 ] || fail "$2 still running 60 s after SIGINT (killed)"
+  return "$status"
+}
 finish() { echo "checks: $passes passed, $fails failed"; [ "$fails" -eq 0 ]; exit $?; }

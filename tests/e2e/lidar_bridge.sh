@@ -10,20 +10,17 @@ source "$(dirname "$0")/lib.bash" "$@"
 log=logs/forklift_demo.log
 config=config/bridges/sick_lms1xx.yaml
 
-cat > "$TMP/run.sh" <<RUN
-set -u
-lcm-logger -f "$TMP/live.log" -c SCAN > /dev/null & logger=\$!
-"$BUILD/agvcal-sickemu" "$log" --port 2111 --jitter-ms 5 --drift-ppm 100 2> "$TMP/emu.err" & emu=\$!
-"$BUILD/agvcal-lidarbridge" "$config" --host 127.0.0.1 --port 2111 2> "$TMP/bridge.err" & bridge=\$!
-wait \$emu; emu_status=\$?
-sleep 1
-kill -INT \$bridge; wait \$bridge; status=\$?
-sleep 1   # the logger writes from a queue
-kill -INT \$logger; wait \$logger
-exit \$((status + emu_status))
-RUN
-expect_status 0 "emulator -> agvcal-lidarbridge -> lcm-logger, bridge stopped with SIGINT" \
-  timeout 120 scripts/netns-run bash "$TMP/run.sh"
+start_logger "$TMP/live.log" SCAN
+"$BUILD/agvcal-sickemu" "$log" --port 2111 --jitter-ms 5 --drift-ppm 100 2> "$TMP/emu.err" & emu=$!
+"$BUILD/agvcal-lidarbridge" "$config" --host 127.0.0.1 --port 2111 2> "$TMP/bridge.err" & bridge=$!
+wait $emu; emu_status=$?
+scans=$("$AGVCAL" info "$log" | awk '$1 == "SCAN" {print $3}')
+wait_for 60 "the recording of the bridge's $scans scans (has $(recorded SCAN "$TMP/live.log"))" \
+  at_least "$scans" recorded SCAN "$TMP/live.log"
+stop $bridge agvcal-lidarbridge; status=$?
+stop_logger "$TMP/live.log"
+[ $((status + emu_status)) -eq 0 ] && pass "emulator -> agvcal-lidarbridge -> lcm-logger, bridge stopped with SIGINT (exit 0)" ||
+  fail "emulator exit $emu_status, bridge exit $status: $(tail -c 300 "$TMP/emu.err") $(tail -c 300 "$TMP/bridge.err")"
 if grep -q "agvcal-lidarbridge: stopped; 580 scans, 0 bad telegrams, 0 scans lost" "$TMP/bridge.err"; then
   pass "every scan decoded"
 else

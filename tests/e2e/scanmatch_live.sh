@@ -7,20 +7,14 @@ source "$(dirname "$0")/lib.bash" "$@"
 robot=config/robots/forklift.yaml
 log=logs/forklift_demo.log
 
-cat > "$TMP/run.sh" <<RUN
-set -u
-lcm-logger -f "$TMP/live.log" -c SCAN_MATCH & logger=\$!
-"$BUILD/agvcal-scanmatch" "$robot" 2> "$TMP/scanmatch.err" & matcher=\$!
-sleep 1   # both subscribed before the replay starts
-lcm-logplayer -s 4 "$SRC/$log"
-sleep 1
-kill -INT \$matcher; wait \$matcher; status=\$?
-sleep 1   # the logger writes from a queue
-kill -INT \$logger; wait \$logger
-exit \$status
-RUN
-expect_status 0 "replay into agvcal-scanmatch, stopped with SIGINT" \
-  timeout 120 scripts/netns-run bash "$TMP/run.sh"
+start_logger "$TMP/live.log" SCAN_MATCH
+"$BUILD/agvcal-scanmatch" "$robot" 2> "$TMP/scanmatch.err" & matcher=$!
+wait_ready "$TMP/live.log" scanmatch && timeout 120 lcm-logplayer -s 4 "$SRC/$log"
+# SIGINT: the matcher handles what it has received, publishes its last match and exits.
+stop $matcher agvcal-scanmatch; status=$?
+stop_logger "$TMP/live.log"
+[ $status -eq 0 ] && pass "replay into agvcal-scanmatch, stopped with SIGINT (exit 0)" ||
+  fail "agvcal-scanmatch exit $status: $(tail -c 400 "$TMP/scanmatch.err")"
 if grep -q "agvcal-scanmatch: stopped; received 580 scans and 2901 wheel states" "$TMP/scanmatch.err"; then
   pass "every scan and wheel state received"
 else

@@ -20,19 +20,17 @@ for k in ("intervals", "outliers", "rms_x", "rms_y", "rms_yaw"): assert k in r["
 assert "condition" in r["observability"] and "weak" in r["observability"]
 PY
 
-cat > "$TMP/run.sh" <<RUN
-set -u
-"$BUILD/agvcal-scanmatch" "$robot" 2> "$TMP/scanmatch.err" & matcher=\$!
-"$BUILD/agvcal-solver" "$robot" --out "$TMP/live.json" 2> "$TMP/solver.err" & solver=\$!
-sleep 1   # subscribed before the replay starts
-lcm-logplayer -s 4 "$log"
-sleep 1
-kill -INT \$matcher; wait \$matcher
-sleep 1   # the matcher's last results reach the solver
-kill -INT \$solver; wait \$solver
-RUN
-expect_status 0 "replay into agvcal-scanmatch + agvcal-solver" \
-  timeout 180 scripts/netns-run bash "$TMP/run.sh"
+start_logger "$TMP/beats.log" HEARTBEAT
+"$BUILD/agvcal-scanmatch" "$robot" 2> "$TMP/scanmatch.err" & matcher=$!
+"$BUILD/agvcal-solver" "$robot" --out "$TMP/live.json" 2> "$TMP/solver.err" & solver=$!
+wait_ready "$TMP/beats.log" scanmatch solver && timeout 120 lcm-logplayer -s 4 "$log"
+# SIGINT: each handles what it has received first; the matcher's last matches, published
+# as it stops, are in the solver's queue when the solver stops.
+stop $matcher agvcal-scanmatch
+stop $solver agvcal-solver; status=$?
+stop_logger "$TMP/beats.log"
+[ $status -eq 0 ] && pass "replay into agvcal-scanmatch + agvcal-solver (exit 0)" ||
+  fail "agvcal-solver exit $status: $(tail -c 400 "$TMP/solver.err")"
 python3 - "$TMP/offline.json" "$TMP/live.json" <<'PY' && pass "live result equals agvcal solve's" || fail "live result differs: $(diff "$TMP/offline.json" "$TMP/live.json" | head -20)"
 import json, sys
 a, b = (json.load(open(p)) for p in sys.argv[1:3])
