@@ -99,7 +99,7 @@ wait_ready() {
 # NAME if it is still running 60 s later (then killed).
 stop() {
   kill -INT "$1" 2>/dev/null
-  ( sleep 60; kill -9 "$1" ) >/dev/null 2>&1 & local watchdog=$!
+  ( trap - EXIT; sleep 60; kill -9 "$1" ) >/dev/null 2>&1 & local watchdog=$!  # not the test's EXIT trap
   wait "$1"; local status=$?
   kill "$watchdog" 2>/dev/null; wait "$watchdog" 2>/dev/null
   [ "$status" -ne 137 ] || fail "$2 still running 60 s after SIGINT (killed)"
