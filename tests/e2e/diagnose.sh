@@ -7,12 +7,15 @@ robot=config/robots/forklift.yaml
 log=logs/forklift_demo.log
 
 expect_status 0 "diagnose --help" "$AGVCAL" diagnose --help
-expect_status 0 "diagnose the sample" \
-  "$AGVCAL" diagnose "$robot" "$log" --quiet --out "$TMP/report.json" --report "$TMP/report" \
+# The sample with one wheel state damaged (its position +100 rad): left out, and said in REPORT.json.
+python3 tests/tools/wheel_log.py $log "$TMP/jump.log" 1000 position drive 100
+expect_status 0 "diagnose the sample (one wheel state jumps)" \
+  "$AGVCAL" diagnose "$robot" "$TMP/jump.log" --quiet --out "$TMP/report.json" --report "$TMP/report" \
   --write-sim "$TMP/reproduce.yaml" --sim "$log"
-python3 - "$TMP/report.json" <<'PY' && pass "REPORT.json has the keys of spec/cli.md" || fail "REPORT.json keys"
+python3 - "$TMP/report.json" <<'PY' && pass "REPORT.json has the keys of spec/cli.md, and input names the left-out wheel state" || fail "REPORT.json keys"
 import json, sys
 r = json.load(open(sys.argv[1]))
+assert r["input"]["dropped"] == 1 and "(WHEELS): wheel 'drive' position jumps" in r["input"]["notes"][0], r.get("input")
 assert r["verdict"] in ("effects_found", "no_significant_effect")
 assert isinstance(r["effects"], list) and isinstance(r["unexplained"], list)
 for e in r["effects"]:

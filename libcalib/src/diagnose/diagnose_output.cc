@@ -170,6 +170,7 @@ std::string DiagnoseReportJson(const DiagnoseReport& r) {
   for (const auto& [name, c] : r.outlier_correlation) j["fit"]["outlier_correlation"][name] = Number(c);
   j["notes"] = r.notes;
   if (!r.warnings.empty()) j["warnings"] = r.warnings;
+  if (r.input_dropped > 0) j["input"] = {{"dropped", r.input_dropped}, {"notes", r.input_notes}};
   nlohmann::json iv = nlohmann::json::array();
   for (const DiagnosedInterval& d : r.intervals) {
     const MotionConditions& m = d.motion;

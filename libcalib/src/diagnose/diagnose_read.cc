@@ -44,6 +44,8 @@ void ReadMotions(const RobotDescription& robot, const std::string& log_path,
                                                   std::function<void(LaserScan*)>(check_scan), shift_us);
   out.wheels = cal.wheels();
   out.motions = cal.motions();
+  out.input_dropped = cal.dropped_input();
+  out.input_notes = cal.drop_notes();
   out.deskew_robot = robot;
   out.deskew_offset_s = shift_us * 1e-6;
   out.deskew_lead_s = 0.0;
@@ -91,7 +93,10 @@ DiagnoseData ReadDiagnoseData(const RobotDescription& robot, const std::string& 
       if (progress) progress("matching the scans again, de-skewed with the calibrated model");
       out.motions_spread.clear();
       ReadMotions(Calibrated(robot, cal), log_path, progress, shift_us, &out);
-    } catch (const InputError&) {
+    } catch (const InputError& e) {
+      // A fault of the robot file (its wheels do not fit the recording's readings) is the cause
+      // to name: the nominal de-skew it spoils would leave only "too few intervals".
+      if (!robot.source_file.empty() && e.file() == robot.source_file) throw;
       // Too little to calibrate: keep the nominal de-skew; Diagnose reports the problem.
     }
   }
@@ -99,6 +104,13 @@ DiagnoseData ReadDiagnoseData(const RobotDescription& robot, const std::string& 
   if (progress) commands.set_on_drop([&](const std::string& note) { progress("left out: " + note); });
   SubscribeDriveCommands(&commands, robot, [&](const DriveCommand& c) { out.commands.push_back(c); });
   commands.HandleAll();
+  // The reader's skips were noted by the motions' read already: only DRIVE_CMD's own drops add.
+  int64_t repeated = 0;
+  for (const std::string& note : commands.drop_notes()) {
+    if (std::find(out.input_notes.begin(), out.input_notes.end(), note) != out.input_notes.end()) ++repeated;
+    else out.input_notes.push_back(note);
+  }
+  out.input_dropped += commands.dropped() - repeated;
   std::stable_sort(out.commands.begin(), out.commands.end(),
                    [](const DriveCommand& a, const DriveCommand& b) { return a.utime < b.utime; });
   return out;
@@ -110,6 +122,8 @@ DiagnoseReport DiagnoseLog(const RobotDescription& robot, const std::string& log
   DiagnoseReport report = Diagnose(robot, data, options, log_path);
   const int64_t origin = RecordingStartUtime(SummarizeLog(log_path));
   report.recording_start_utime = origin;
+  report.input_dropped = data.input_dropped;
+  report.input_notes = data.input_notes;
   if (data.source != MotionSource::kLidar2d) return report;
   for (const FoundEffect& e : report.effects) {
     if (e.name != "time_offset") continue;
@@ -125,6 +139,8 @@ DiagnoseReport DiagnoseLog(const RobotDescription& robot, const std::string& log
     break;
   }
   report.recording_start_utime = origin;
+  report.input_dropped = data.input_dropped;
+  report.input_notes = data.input_notes;
   return report;
 }
 

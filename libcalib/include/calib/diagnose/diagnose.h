@@ -73,6 +73,10 @@ struct DiagnoseData {
   double deskew_lead_s = 0.0;
   double deskew_offset_s = 0.0;
   std::optional<RobotDescription> deskew_robot;
+  // What the reader left out (bad or out-of-order messages, torn events), for REPORT.json
+  // `input`, as RESULT.json carries it.
+  int64_t input_dropped = 0;
+  std::vector<std::string> input_notes;
 };
 
 // Reads WHEELS, the motion sensor (scan-matched SCAN or POSE) and DRIVE_CMD. The scans
@@ -241,6 +245,10 @@ struct DiagnoseReport {
   };
   std::vector<Trace> actuation;
   std::vector<std::string> notes;
+  // What the reader left out of the recording (DiagnoseData's); REPORT.json `input` (absent
+  // when nothing was).
+  int64_t input_dropped = 0;
+  std::vector<std::string> input_notes;
   // A fit that stopped short of convergence (the starting calibrations, the baseline, a candidate
   // alone, a confusable pair, the final model): its test or its values are uncertain. REPORT.json
   // `warnings` (absent when empty).
