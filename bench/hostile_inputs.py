@@ -15,8 +15,9 @@ and prints one row per case and the counts. Exit status 0 when every case is ok.
 
 A case is a row of CASES: class, name, a function making the inputs in a scratch folder and
 returning the command, the expected exit status, the words stderr must hold and, for result
-paths, a check afterwards that nothing was destroyed. Live faults are
-tests/e2e's (group_kill, group_hostile, group_full_disk).
+paths, a check afterwards that nothing was destroyed. Live faults (a process of the group killed,
+a scanner that stalls) run a short script on a private bus instead of one command; the e2e tests
+cover more of them (group_kill, group_hostile, group_full_disk).
 """
 import argparse
 import math
@@ -333,6 +334,54 @@ def case_report_user_file(tmp):
         unchanged(mine, sha(mine))
 
 
+# --- live faults: a process group or a bridge on a private bus ---------------------------------
+
+# A live case returns [LIVE, SCRIPT]: bash runs SCRIPT in a private network namespace
+# (scripts/netns-run) from the source folder, with $BIN (the build) and $TMP (the case's folder);
+# what it prints on stdout and stderr is what is said.
+LIVE = 'live'
+# waits_for SECONDS CMD...: until CMD succeeds (tried every 0.1 s); false after SECONDS
+WAITS_FOR = '''waits_for() { local until=$((SECONDS + $1)); shift
+  until "$@" >/dev/null 2>&1; do [ "$SECONDS" -ge "$until" ] && return 1; sleep 0.1; done; }
+'''
+
+
+def case_group_killed_solver(tmp):
+    """The group's solver killed (SIGKILL) once the recording holds 1000 wheel states: the group
+    restarts it, says so, and ends with a RESULT.json."""
+    script = WAITS_FOR + '''exec 1>&2
+run=$TMP/run
+scripts/agvcal-group --replay logs/forklift_demo.log --robot config/robots/forklift.yaml --speed 4 \\
+  --run-dir "$run" & group=$!
+wheels() { "$BIN/agvcal-recording" count "$run/recording.log" | grep -qE "WHEELS [0-9]{4}"; }
+waits_for 60 wheels || echo "no 1000 wheel states recorded in 60 s"
+kill -KILL "$(supervisorctl -c "$run/supervisord.conf" pid solver)"
+wait $group
+'''
+    result = os.path.join(tmp, 'run', 'RESULT.json')
+    return [LIVE, script], 0, ['solver exited; restarting it (1 of 3)'], \
+        lambda: None if os.path.exists(result) else 'partial'
+    
+
+def case_bridge_stalled(tmp):
+    """The scanner stops sending (SIGSTOP to the emulator) for longer than a scan period and then
+    goes on: the lidar bridge says it stalled and when data comes again."""
+    script = WAITS_FOR + '''exec 1>&2
+"$BIN/agvcal-sickemu" logs/forklift_demo.log --port 2111 2>/dev/null & emu=$!
+"$BIN/agvcal-lidarbridge" config/bridges/sick_lms1xx.yaml --host 127.0.0.1 --port 2111 2>"$TMP/bridge.err" & bridge=$!
+waits_for 30 grep -q "connected to" "$TMP/bridge.err" || echo "the bridge did not connect in 30 s"
+kill -STOP $emu
+waits_for 10 grep -q "no data for" "$TMP/bridge.err" || echo "nothing said about the stall in 10 s"
+kill -CONT $emu
+waits_for 10 grep -q "data again" "$TMP/bridge.err" || echo "nothing said when data came again in 10 s"
+kill -INT $bridge; wait $bridge; status=$?
+kill $emu; wait $emu
+cat "$TMP/bridge.err"
+exit $status
+'''
+    return [LIVE, script], 0, ['no data for 2 s on an open connection (the device stalled?)', 'data again after']
+
+
 # A case marked OPEN is a known gap (docs/bad-input.md says which): run and shown, its outcome
 # counted apart ("open"), not failing the run.
 OPEN = 'open'
@@ -364,7 +413,7 @@ CASES = [
                                                                         ['limits.max_speed', 'must be from 0.001'])),
     ('robot file: values', 'no lidar2d (recording has scans)', case_no_lidar2d),
     ('robot file: values', 'dual steer, wheel names swapped (solve)', case_dual_swapped('solve')),
-    ('robot file: values', 'dual steer, wheel names swapped (diagnose)', case_dual_swapped('diagnose'), OPEN),
+    ('robot file: values', 'dual steer, wheel names swapped (diagnose)', case_dual_swapped('diagnose')),
     ('robot file: size', '50 MB std: map', case_big_std),
     ('robot file: size', '200,000-deep [ nest', case_yaml_text(DEEP, ['nested more than 32 levels'])),
     ('robot file: size', '400,000-element list', case_yaml_text(LIST, ['more than 100000 values'])),
@@ -378,6 +427,8 @@ CASES = [
     ('result paths', '--out a FIFO (a reader waiting)', case_out_fifo),
     ('result paths', "the user's RESULT.json.partial beside --out", case_user_partial),
     ('result paths', "--report into a folder with the user's own file", case_report_user_file),
+    ('live faults', 'the group\'s solver killed mid-replay', case_group_killed_solver),
+    ('live faults', 'the lidar bridge\'s scanner stalls for a while', case_bridge_stalled),
 ]
 
 OUTCOMES = ['ok', 'crash', 'hang', 'silently wrong', 'partial', 'unclear']
@@ -389,7 +440,12 @@ def run_case(agvcal, make):
         args, want, words, *check = make(tmp)
         start = time.monotonic()
         try:
-            p = subprocess.run([agvcal] + args, cwd=SRC, capture_output=True, timeout=TIME_LIMIT_S)
+            if args[0] == LIVE:
+                env = dict(os.environ, BIN=os.path.dirname(agvcal), AGVCAL_BIN=os.path.dirname(agvcal), TMP=tmp)
+                command = [os.path.join(SRC, 'scripts/netns-run'), 'bash', '-c', args[1]]
+                p = subprocess.run(command, cwd=SRC, env=env, capture_output=True, timeout=TIME_LIMIT_S)
+            else:
+                p = subprocess.run([agvcal] + args, cwd=SRC, capture_output=True, timeout=TIME_LIMIT_S)
             code, err = p.returncode, p.stderr.decode(errors='replace') + p.stdout.decode(errors='replace')[:0]
         except subprocess.TimeoutExpired:
             return 'hang', None, time.monotonic() - start, ''

@@ -36,6 +36,10 @@ the connection drops; stops on Ctrl-C.)")
 using agvcal_process::g_stop_requested;
 using agvcal_process::WallMicros;
 
+// A scanner streams tens of scans a second: this long without a byte on an open connection is
+// a stalled device (or link), said once, while the bridge keeps waiting on it.
+constexpr int64_t kStalledUs = 2000000;
+
 int Run(int argc, char** argv) {
   using namespace agvcal_process;
   CommandLine args("agvcal-lidarbridge");
@@ -72,12 +76,27 @@ int Run(int argc, char** argv) {
     calib::StxEtxFramer framer;
     bool open = SendAll(fd, calib::FrameTelegram("sEN LMDscandata 1"));
     char buffer[65536];
+    int64_t last_data = WallMicros();
+    bool stalled = false;
     while (open && !g_stop_requested) {
-      heartbeat.Beat("streaming " + std::to_string(scans) + " scans");
+      const int64_t silent = WallMicros() - last_data;
+      heartbeat.Beat(stalled ? "stalled: no data from " + origin + " for " + std::to_string(silent / 1000000) + " s, " +
+                                   std::to_string(scans) + " scans"
+                             : "streaming " + std::to_string(scans) + " scans");
       pollfd p{fd, POLLIN, 0};
-      if (poll(&p, 1, 100) <= 0) continue;
+      if (poll(&p, 1, 100) <= 0) {
+        if (!stalled && WallMicros() - last_data > kStalledUs) {
+          stalled = true;
+          std::cerr << "agvcal-lidarbridge: " << origin << ": no data for " << kStalledUs / 1000000
+                    << " s on an open connection (the device stalled?); waiting for it\n";
+        }
+        continue;
+      }
       const ssize_t n = recv(fd, buffer, sizeof buffer, 0);
       const int64_t arrival = WallMicros();
+      if (stalled && n > 0)
+        std::cerr << "agvcal-lidarbridge: " << origin << ": data again after " << (arrival - last_data) / 1000 << " ms\n";
+      if (n > 0) last_data = arrival, stalled = false;
       if (n <= 0) {
         if (n < 0 && errno == EINTR) continue;
         open = false;
