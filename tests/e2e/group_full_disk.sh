@@ -2,11 +2,15 @@
 # A full disk during a live run ends the group within seconds, with one line saying so,
 # and nothing is restarted into it: the simulated forklift's group runs with its run
 # directory on a 20 MB tmpfs of its own (a private mount namespace), 19 MB of it taken
-# beforehand, so that the recording fills it a few seconds into the trajectory.
+# beforehand, so that the recording fills it a few seconds into the trajectory. The run
+# directory holds the previous calibration's RESULT.json, which must come out byte for byte.
 source "$(dirname "$0")/lib.bash" "$@"
 mkdir "$TMP/disk"
+"$AGVCAL" solve config/robots/forklift.yaml logs/forklift_demo.log --quiet --out "$TMP/previous.json" >/dev/null ||
+  fail "the previous calibration"
 cat >"$TMP/full.sh" <<SCRIPT
 mount -t tmpfs -o size=20m agvcal-test-disk "$TMP/disk" || exit 99
+mkdir "$TMP/disk/run" && cp "$TMP/previous.json" "$TMP/disk/run/RESULT.json"
 head -c 19M /dev/zero >"$TMP/disk/filler"
 start=\$(date +%s%N)
 scripts/agvcal-group --sim config/sims/forklift.yaml --trajectory default --speed 2 \
@@ -25,5 +29,7 @@ tracebacks=$(grep -c Traceback "$TMP/group.out")
 [ "$tracebacks" -eq 0 ] && pass "no traceback" || fail "$tracebacks tracebacks: $(grep -m 3 -A 3 Traceback "$TMP/group.out")"
 spawns=$(grep -c "spawned: 'logger'" "$TMP/run/supervisord.log" 2>/dev/null)
 [ "${spawns:-0}" -eq 1 ] && pass "the logger was not restarted into the full disk" || fail "logger spawned $spawns times"
+cmp -s "$TMP/previous.json" "$TMP/run/RESULT.json" && pass "the previous RESULT.json is kept, byte for byte" ||
+  fail "the previous RESULT.json is gone or changed"
 no_orphans
 finish
