@@ -2,7 +2,8 @@
 # Runs the libFuzzer targets (bench/fuzz/*_fuzz.cc, docs/bad-input.md) under ASan and UBSan,
 # each for SECONDS, and prints per target the executions, their rate and the crashes found.
 #   bench/fuzz/run.sh TARGET|all SECONDS
-#   bench/fuzz/run.sh --ci          all targets for 4 s each on the committed corpus (ctest fuzz_smoke)
+#   bench/fuzz/run.sh --ci          all targets for 4 s each on the committed corpus (ctest fuzz_smoke;
+#                                   AGVCAL_FUZZ_SECONDS=S sets the seconds per target)
 #   AGVCAL_FUZZ_RUNS=N bench/fuzz/run.sh TARGET|all 0   stop each target after N executions instead
 # Builds build-fuzz/ first (clang++, -DAGVCAL_FUZZ=ON; AGVCAL_FUZZ_BUILD overrides the directory).
 # New inputs go to build-fuzz/corpus/TARGET (the committed bench/fuzz/corpus/TARGET is only read),
@@ -12,11 +13,11 @@ here=$(cd "$(dirname "$0")/../.." && pwd)
 build=${AGVCAL_FUZZ_BUILD:-$here/build-fuzz}
 targets_all=(recording messages robot_file sim_config pcd kitti carmen mines lego optiodom pose_csv
              candump sick_cola bridge_config)
-usage() { sed -n '2,9p' "$0" | sed 's/^# \{0,1\}//'; }
+usage() { sed -n '2,10p' "$0" | sed 's/^# \{0,1\}//'; }
 ci=0
 case "${1:-}" in
   -h|--help) usage; exit 0 ;;
-  --ci) ci=1; which=all; seconds=4 ;;
+  --ci) ci=1; which=all; seconds=${AGVCAL_FUZZ_SECONDS:-4} ;;
   "") usage >&2; exit 2 ;;
   *) which=$1; seconds=${2:?SECONDS missing}; shift 2 ;;
 esac
