@@ -44,23 +44,20 @@ assert d[1]["in_use"]["drive_radius"]["value"] == radius, (d[1]["in_use"]["drive
 PY
 
 # Live: the same recording through the bus.
-cat > "$TMP/run.sh" <<RUN
-set -u
-"$BUILD/agvcal-scanmatch" "$robot" 2> "$TMP/scanmatch.err" & matcher=\$!
+start_logger "$TMP/beats.log" HEARTBEAT
+"$BUILD/agvcal-scanmatch" "$robot" 2> "$TMP/scanmatch.err" & matcher=$!
 "$BUILD/agvcal-recal" "$robot" --config "$config" --out-robot "$TMP/live.yaml" \
-  --decisions "$TMP/live.jsonl" 2> "$TMP/recal.err" & recal=\$!
-sleep 1   # subscribed before the replay starts
+  --decisions "$TMP/live.jsonl" 2> "$TMP/recal.err" & recal=$!
 # 5x: agvcal-recal gives up waiting for a segment's last scan matches 30 s of robot time after
 # it ends (kLookbackS), 6 s of wall time here; a scan matcher slowed that much by a loaded
 # machine would otherwise change a segment's data.
-lcm-logplayer -s 5 "$log"
-sleep 2
-kill -INT \$recal; wait \$recal; status=\$?
-kill -INT \$matcher; wait \$matcher
-exit \$status
-RUN
-expect_status 0 "replay into agvcal-scanmatch + agvcal-recal, stopped with SIGINT" \
-  timeout 180 scripts/netns-run bash "$TMP/run.sh"
+wait_ready "$TMP/beats.log" scanmatch recal && timeout 180 lcm-logplayer -s 5 "$log"
+# SIGINT: a decision under way is finished and written first.
+stop $recal agvcal-recal; status=$?
+stop $matcher agvcal-scanmatch
+stop_logger "$TMP/beats.log"
+[ $status -eq 0 ] && pass "replay into agvcal-scanmatch + agvcal-recal, stopped with SIGINT (exit 0)" ||
+  fail "agvcal-recal exit $status: $(tail -c 400 "$TMP/recal.err")"
 # Every message of the recording arrived (LCM drops what a busy process has not taken from
 # its queue unless the subscription keeps everything: BusSource).
 counts=$("$AGVCAL" info "$log" | awk '$1 == "WHEELS" || $1 == "SCAN" || $1 == "POSE" {printf "%s=%s ", $1, $3}')
