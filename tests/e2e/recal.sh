@@ -48,10 +48,10 @@ start_logger "$TMP/beats.log" HEARTBEAT
 "$BUILD/agvcal-scanmatch" "$robot" 2> "$TMP/scanmatch.err" & matcher=$!
 "$BUILD/agvcal-recal" "$robot" --config "$config" --out-robot "$TMP/live.yaml" \
   --decisions "$TMP/live.jsonl" 2> "$TMP/recal.err" & recal=$!
-# 5x: agvcal-recal gives up waiting for a segment's last scan matches 30 s of robot time after
-# it ends (kLookbackS), 6 s of wall time here; a scan matcher slowed that much by a loaded
+# 8x: agvcal-recal gives up waiting for a segment's last scan matches 30 s of robot time after
+# it ends (kLookbackS), 3.75 s of wall time here; a scan matcher slowed that much by a loaded
 # machine would otherwise change a segment's data.
-wait_ready "$TMP/beats.log" scanmatch recal && timeout 180 lcm-logplayer -s 5 "$log"
+wait_ready "$TMP/beats.log" scanmatch recal && timeout 180 lcm-logplayer -s 8 "$log"
 # SIGINT: a decision under way is finished and written first.
 stop $recal agvcal-recal; status=$?
 stop $matcher agvcal-scanmatch
