@@ -7,14 +7,7 @@ source "$(dirname "$0")/lib.bash" "$@"
 robot=config/robots/imu_robot.yaml
 "$AGVCAL" simulate config/sims/imu_robot.yaml "$TMP/imu.log" --trajectory demo --quiet || fail "simulate"
 
-start_logger "$TMP/live.log" ODOM_FUSED
-"$BUILD/agvcal-fusion" "$robot" 2> "$TMP/fusion.err" & fusion=$!
-# slower: a lost UDP message changes the fused poses
-wait_ready "$TMP/live.log" fusion && timeout 120 lcm-logplayer -s 4 "$TMP/imu.log"
-stop $fusion agvcal-fusion; status=$?
-stop_logger "$TMP/live.log"
-[ $status -eq 0 ] && pass "replay into agvcal-fusion, stopped with SIGINT (exit 0)" ||
-  fail "agvcal-fusion exit $status: $(tail -c 400 "$TMP/fusion.err")"
+replay_into "$TMP/live.log" ODOM_FUSED 4 "$TMP/imu.log" fusion "$BUILD/agvcal-fusion" "$robot"
 # UDP may drop a message when a loaded machine stalls a receiver longer than its buffer
 # lasts; every later fused pose then differs. agvcal-fusion reports what it received: with
 # every message received, the poses must equal the offline ones (a difference is a bug); with

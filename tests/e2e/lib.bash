@@ -85,6 +85,19 @@ stop_logger() {
   "$BUILD/agvcal-recording" drain "$1" --timeout 60 >/dev/null 2>&1 || fail "the logger of $1 did not drain within 60 s"
   kill -INT "$logger"; wait "$logger"
 }
+# replay_into OUT CHANNELS SPEED RECORDING PROCESS CMD...: CMD (agvcal-PROCESS; its stderr in
+# $TMP/PROCESS.err) in the background while OUT records CHANNELS; RECORDING replayed at SPEED once
+# PROCESS has subscribed; then PROCESS stopped (SIGINT) and OUT drained. A check of its exit 0.
+replay_into() {
+  local out=$1 channels=$2 speed=$3 recording=$4 process=$5 pid status; shift 5
+  start_logger "$out" "$channels"
+  "$@" 2>"$TMP/$process.err" & pid=$!
+  wait_ready "$out" "$process" && timeout 120 lcm-logplayer -s "$speed" "$recording"
+  stop $pid "agvcal-$process"; status=$?
+  stop_logger "$out"
+  [ $status -eq 0 ] && pass "replay into agvcal-$process, stopped with SIGINT (exit 0)" ||
+    fail "agvcal-$process exit $status: $(tail -c 400 "$TMP/$process.err")"
+}
 # beat_seen LOG PROCESS [STATE_REGEX]: LOG holds a HEARTBEAT of PROCESS (whose state matches)
 beat_seen() { python3 "$SRC/tests/tools/heartbeats.py" "$1" "$2" | grep -qE -- "${3:-.}"; }
 # beat_now LOG PROCESS STATE_REGEX: PROCESS's last HEARTBEAT in LOG matches

@@ -7,14 +7,8 @@ source "$(dirname "$0")/lib.bash" "$@"
 robot=config/robots/forklift.yaml
 log=logs/forklift_demo.log
 
-start_logger "$TMP/live.log" SCAN_MATCH
-"$BUILD/agvcal-scanmatch" "$robot" 2> "$TMP/scanmatch.err" & matcher=$!
-wait_ready "$TMP/live.log" scanmatch && timeout 120 lcm-logplayer -s 4 "$SRC/$log"
 # SIGINT: the matcher handles what it has received, publishes its last match and exits.
-stop $matcher agvcal-scanmatch; status=$?
-stop_logger "$TMP/live.log"
-[ $status -eq 0 ] && pass "replay into agvcal-scanmatch, stopped with SIGINT (exit 0)" ||
-  fail "agvcal-scanmatch exit $status: $(tail -c 400 "$TMP/scanmatch.err")"
+replay_into "$TMP/live.log" SCAN_MATCH 4 "$SRC/$log" scanmatch "$BUILD/agvcal-scanmatch" "$robot"
 if grep -q "agvcal-scanmatch: stopped; received 580 scans and 2901 wheel states" "$TMP/scanmatch.err"; then
   pass "every scan and wheel state received"
 else
