@@ -75,8 +75,10 @@ group_pid() {
 # start_logger LOG CHANNELS: lcm-logger records CHANNELS (a regex) and HEARTBEAT into LOG, in
 # the background (its pid in $logger); returns once it records (agvcal-recording drain: a mark
 # it publishes is in LOG). The processes' HEARTBEATs in LOG tell when they have subscribed.
+# Without LCM's 30-message queue limit (as the group's logger): a logger stalled by a loaded
+# machine would drop messages from the middle of a fast stream.
 start_logger() {
-  lcm-logger -f "$1" -c "$2|HEARTBEAT" >/dev/null 2>&1 & logger=$!
+  LD_PRELOAD=$BUILD/libagvcal-lcm-unbounded-queue.so lcm-logger -f "$1" -c "$2|HEARTBEAT" >/dev/null 2>&1 & logger=$!
   "$BUILD/agvcal-recording" drain "$1" --timeout 60 >/dev/null 2>&1 ||
     { fail "lcm-logger did not record into $1 within 60 s"; return 1; }
 }
