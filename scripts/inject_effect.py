@@ -17,7 +17,7 @@ an encoder shows when the effect is present:
   samples j, j+-k form one tridiagonal chain per residue of j mod k.
 - eccentricity: ROLE's angle phi' solves phi' + A*(sin(phi' - P) + sin P) = phi (A < 1).
 - backlash: ROLE's steering reading gets + sign*W/2, sign the direction of the last steering motion
-  with the diagnosis's hysteresis (2 mrad); the reading's directions and the sign are unchanged by it.
+  by the diagnosis's rule (2 mrad hysteresis) on the readings written.
 - offset: utime and the logger's stamp of every message on CHANNEL (WHEELS, SCAN, POSE) + D.
 Exits 3 (and writes nothing) when the effect at this size is not realisable on the recording
 (A >= 1, or the slip's equations have no solution near the recording: S*a reaches 1)."""
@@ -139,16 +139,20 @@ def solve_eccentricity(phi, amplitude, phase):
 
 
 def backlash_readings(steer, width):
-    """steer + sign*width/2, sign the direction of the last steering motion (MakeTrack's rule)."""
+    """steer + sign*width/2, sign the direction of the last steering motion by MakeTrack's rule
+    applied to the readings written (so ties at the hysteresis fall the same way there)."""
     out, sign, extreme = [], 0, steer[0]
     for s in steer:
-        if sign >= 0 and s < extreme - STEER_HYSTERESIS:
-            sign, extreme = -1, s
-        elif sign <= 0 and s > extreme + STEER_HYSTERESIS:
-            sign, extreme = 1, s
-        elif (sign > 0 and s > extreme) or (sign < 0 and s < extreme):
-            extreme = s
-        out.append(s + sign * width / 2)
+        x = s + sign * width / 2
+        if sign >= 0 and x < extreme - STEER_HYSTERESIS:
+            sign = -1
+            x = extreme = s - width / 2
+        elif sign <= 0 and x > extreme + STEER_HYSTERESIS:
+            sign = 1
+            x = extreme = s + width / 2
+        elif (sign > 0 and x > extreme) or (sign < 0 and x < extreme):
+            extreme = x
+        out.append(x)
     return out
 
 
