@@ -15,7 +15,8 @@ terms, tests/inject_effect_test.cc) and it is diagnosed again:
 - steering_backlash on a steered drive,
 each at 3x and 10x the larger of the effect's `detectable` and `detectable_with` in the
 recording's unmodified REPORT.json. A size the effect's model cannot realise on the recording
-(an eccentricity amplitude >= 1, a slip whose slip x acceleration reaches 1) is listed, not run.
+(an eccentricity amplitude >= 1, a slip whose slip x acceleration reaches 1), and an offset that
+takes the recording's own beyond the +-2 s the diagnosis searches, are listed, not run.
 
 Scored against the same recording unmodified: recovered = the effect named (in `effects`) with
 the change of its estimate within 15 % of the injection or 2 sigma; clean = every other declared
@@ -37,6 +38,7 @@ import sys
 HERE = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
 MULTIPLES = (3, 10)
 ECC_PHASE = 0.4  # rad; the pair's second run at ECC_PHASE + pi
+SEARCHED_OFFSET_S = 2.0  # the diagnosis's offset search range (calibration.h kWidestTimeOffsetS)
 QUICK_NAMES = ("mines_exp1", "lego_robot4", "optiodom_tricycle_circular_140120211415_run-01")
 KEY = {"longitudinal_slip": "slip_per_accel", "wheel_eccentricity": "amplitude", "time_offset": "offset_s",
        "steering_backlash": "width_rad"}
@@ -53,6 +55,8 @@ def diagnose(args, robot, log, out):
     if os.path.exists(out):
         with open(out) as f:
             return json.load(f)
+    if args.score_only:
+        return {"not_run": "not run in the time the run had"}
     r = subprocess.run([os.path.join(args.build, "agvcal"), "diagnose", robot, log, "--out", out, "--quiet",
                         "--jobs", "1"], stdout=subprocess.DEVNULL, stderr=subprocess.PIPE, text=True)
     if r.returncode != 0:
@@ -106,7 +110,7 @@ def unit_size(base, name, wheel=""):
     return max([c["detectable"]] + list(c.get("detectable_with", {}).values()))
 
 
-def plan(base, name, robot, quick):
+def plan(base, name, robot, args):
     """The injections of one recording: dicts with tag, effect, args (inject_effect.py), truth."""
     drive, roles = base["drive"], list(read_roles(robot))
     wheel0 = roles[0]
@@ -114,7 +118,7 @@ def plan(base, name, robot, quick):
     params = base.get("refitted") or base["calibration"]
     radii = ",".join(f"{params[r + '_radius']['value']:.9g}" for r in roles)
     out = []
-    for m in MULTIPLES[:1] if quick else MULTIPLES:
+    for m in args.multiples:
         s = unit_size(base, "longitudinal_slip")
         if s:
             out.append({"tag": f"slip_{m}x", "effect": "longitudinal_slip", "wheel": "", "size": m * s, "x": m,
@@ -125,13 +129,17 @@ def plan(base, name, robot, quick):
                         "runs": [["eccentricity", wheel0, f"{m * a:.6g}", str(ECC_PHASE)],
                                  ["eccentricity", wheel0, f"{m * a:.6g}", str(ECC_PHASE + math.pi)]]})
         d = unit_size(base, "time_offset")
+        recorded = estimate(base, "time_offset")[0]
         if d:
-            for sign in (1,) if quick else (1, -1):
+            for sign in (1,) if args.one_sign else (1, -1):
                 shift = sign * m * d
-                out.append({"tag": f"wheelclock_{'+' if sign > 0 else '-'}{m}x", "effect": "time_offset", "wheel": "",
-                            "size": -shift, "x": m, "runs": [["offset", "WHEELS", f"{shift:.6f}"]]})
-                out.append({"tag": f"scanclock_{'+' if sign > 0 else '-'}{m}x", "effect": "time_offset", "wheel": "",
-                            "size": shift, "x": m, "runs": [["offset", source_channel, f"{shift:.6f}"]]})
+                for clock, channel, change in (("wheelclock", "WHEELS", -shift), ("scanclock", source_channel, shift)):
+                    inj = {"tag": f"{clock}_{'+' if sign > 0 else '-'}{m}x", "effect": "time_offset", "wheel": "",
+                           "size": change, "x": m, "runs": [["offset", channel, f"{shift:.6f}"]]}
+                    if abs(recorded + change) > SEARCHED_OFFSET_S:
+                        inj["skip"] = (f"the offset with it, {recorded + change:.3g} s, lies beyond the "
+                                       f"+-{SEARCHED_OFFSET_S:g} s searched")
+                    out.append(inj)
         if drive != "differential":
             w = unit_size(base, "steering_backlash")
             if w:
@@ -148,11 +156,13 @@ def read_roles(robot):
 
 def run_injection(args, name, robot, log, inj):
     """Injects and diagnoses each run of `inj`; the reports, or a reason it was not run."""
+    if "skip" in inj:
+        return {"not_run": inj["skip"]}
     reps = []
     for k, run in enumerate(inj["runs"]):
         tag = f"{name}.{inj['tag']}.{k}"
         out = os.path.join(args.work, args.label, tag + ".json")
-        if not os.path.exists(out):
+        if not os.path.exists(out) and not args.score_only:
             injected = os.path.join(args.work, args.label, tag + ".log")
             r = subprocess.run([sys.executable, os.path.join(HERE, "scripts", "inject_effect.py"), log, injected, robot]
                                + run, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
@@ -161,9 +171,11 @@ def run_injection(args, name, robot, log, inj):
             if r.returncode != 0:
                 return {"not_run": f"inject_effect.py exit {r.returncode}: {r.stderr.strip()[-160:]}"}
             rep = diagnose(args, robot, injected, out)
-            os.remove(injected)
+            os.path.exists(injected) and os.remove(injected)
         else:
             rep = diagnose(args, robot, None, out)
+        if "not_run" in rep:
+            return rep
         reps.append(rep)
     return {"reports": reps}
 
@@ -226,7 +238,7 @@ def table(rows, label):
     rec = sum(i["recovered"] for i in ran)
     clean = sum(not i["moved"] and not i["note"] for i in ran)
     summary = (f"**{label}: recovered {rec} of {len(ran)} injections run; {clean} of {len(ran)} with nothing else moved "
-               f"beyond 2σ; {len(rows) - len(ran)} sizes not realisable on their recording (not run).**")
+               f"beyond 2σ; {len(rows) - len(ran)} sizes not realisable on their recording or beyond the offset range searched (not run).**")
     by_effect = {}
     for i in ran:
         t = by_effect.setdefault(i["effect"], [0, 0])
@@ -245,7 +257,14 @@ def main():
     ap.add_argument("--quick", action="store_true")
     ap.add_argument("--names", default="")
     ap.add_argument("--out", default="")
+    ap.add_argument("--multiples", default="3,10", help="sizes, in multiples of the detectable size")
+    ap.add_argument("--one-sign", action="store_true", help="each clock moved one way only (the time offset "
+                    "still changes both ways: a later wheel clock lowers it, a later scan clock raises it)")
+    ap.add_argument("--score-only", action="store_true", help="score the reports there are; run nothing")
     args = ap.parse_args()
+    args.multiples = [int(m) for m in args.multiples.split(",")]
+    if args.quick:
+        args.multiples, args.one_sign = args.multiples[:1], True
     args.build = os.path.abspath(args.build)
     args.label = args.label or args.build.strip("/").replace("/", "_")
     rec_dir = os.path.join(args.work, "recordings")
@@ -255,7 +274,7 @@ def main():
                        env=dict(os.environ, AGVCAL_BIN=args.build), stdout=subprocess.DEVNULL)
     names = sorted(f[:-4] for f in os.listdir(rec_dir) if f.endswith(".log"))
     wanted = args.names.split(",") if args.names else (QUICK_NAMES if args.quick else names)
-    names = [n for n in names if n in wanted and dataset_robot(n)]
+    names = [n for n in wanted if n in names and dataset_robot(n)]  # in the order asked
     logs = {n: os.path.join(rec_dir, n + ".log") for n in names}
     with cf.ThreadPoolExecutor(max_workers=args.jobs) as pool:
         bases = dict(zip(names, pool.map(
@@ -263,10 +282,10 @@ def main():
             names)))
         work = []
         for n in names:
-            if "error" in bases[n]:
-                print(f"{n}: as recorded: {bases[n]['error']}", file=sys.stderr)
+            if "error" in bases[n] or "not_run" in bases[n]:
+                print(f"{n}: as recorded: {bases[n].get('error') or bases[n]['not_run']}", file=sys.stderr)
                 continue
-            work += [(n, inj) for inj in plan(bases[n], n, dataset_robot(n), args.quick)]
+            work += [(n, inj) for inj in plan(bases[n], n, dataset_robot(n), args)]
         results = list(pool.map(lambda w: run_injection(args, w[0], dataset_robot(w[0]), logs[w[0]], w[1]), work))
     for (n, inj), res in zip(work, results):
         score(bases[n], inj, res)
