@@ -234,18 +234,44 @@ def table(rows, label):
         out.append(f"| {name} | {inj['tag'].split('_')[0]} {inj['effect']}{wheel} | {inj['size']:.3g} ({inj['x']}x) | "
                    f"{inj['found']} | {fmt(inj['change'])} ± {fmt(inj['sigma'])} | {'yes' if inj['recovered'] else 'no'} | "
                    f"{'; '.join(inj['moved']) or '-'} | {inj['note']} |")
-    ran = [i for _, i in rows if not i["note"].startswith("not run")]
-    rec = sum(i["recovered"] for i in ran)
-    clean = sum(not i["moved"] and not i["note"] for i in ran)
-    summary = (f"**{label}: recovered {rec} of {len(ran)} injections run; {clean} of {len(ran)} with nothing else moved "
-               f"beyond 2σ; {len(rows) - len(ran)} sizes not realisable on their recording or beyond the offset range searched (not run).**")
+    out.insert(0, summary(rows, label) + "\n")
+    return "\n".join(out) + "\n"
+
+
+def ran(inj):
+    return not inj["note"].startswith("not run")
+
+
+def summary(rows, label):
+    done = [i for _, i in rows if ran(i)]
+    late = sum(1 for _, i in rows if "in the time" in i["note"])
+    rec = sum(i["recovered"] for i in done)
+    clean = sum(not i["moved"] and not i["note"] for i in done)
     by_effect = {}
-    for i in ran:
+    for i in done:
         t = by_effect.setdefault(i["effect"], [0, 0])
         t[0] += i["recovered"]
         t[1] += 1
-    summary += "\n\nBy effect: " + ", ".join(f"{k} {a} of {b}" for k, (a, b) in sorted(by_effect.items())) + "."
-    return summary + "\n\n" + "\n".join(out) + "\n"
+    return (f"**{label}: recovered {rec} of {len(done)} injections run; {clean} of {len(done)} with nothing else "
+            f"moved beyond 2σ.** Not run: {len(rows) - len(done) - late} sizes not realisable on their recording or "
+            f"beyond the offset range searched, {late} not run in the time the run had. By effect: "
+            + ", ".join(f"{k} {a} of {b}" for k, (a, b) in sorted(by_effect.items())) + ".")
+
+
+def side_by_side(rows_a, rows_b, label_a, label_b):
+    """One row per injection both builds ran (each at its own size): the change each found, named, recovered."""
+    both = [(n, a, b) for (n, a), (_, b) in zip(rows_a, rows_b) if ran(a) and ran(b)]
+    out = [summary([(n, a) for n, a, _ in both], f"{label_a}, the injections both ran"),
+           "", summary([(n, b) for n, _, b in both], f"{label_b}, the injections both ran"), "",
+           f"| recording | injection | injected ({label_a}; {label_b}) | {label_a}: change ± σ, named, recovered | {label_b}: change ± σ, named, "
+           f"recovered | {label_b}: other effects moved beyond 2σ | {label_b}: note |",
+           "|---|---|---|---|---|---|---|"]
+    for n, a, b in both:
+        wheel = f" ({a['wheel']})" if a["wheel"] else ""
+        cell = lambda i: f"{fmt(i['change'])} ± {fmt(i['sigma'])}, {i['found']}, {'**yes**' if i['recovered'] else 'no'}"
+        out.append(f"| {n} | {a['tag'].split('_')[0]} {a['effect']}{wheel} | {a['size']:.3g}; {b['size']:.3g} ({a['x']}x) | {cell(a)} | "
+                   f"{cell(b)} | {'; '.join(b['moved']) or '-'} | {b['note'][:140]} |")
+    return "\n".join(out) + "\n"
 
 
 def main():
@@ -261,6 +287,8 @@ def main():
     ap.add_argument("--one-sign", action="store_true", help="each clock moved one way only (the time offset "
                     "still changes both ways: a later wheel clock lowers it, a later scan clock raises it)")
     ap.add_argument("--score-only", action="store_true", help="score the reports there are; run nothing")
+    ap.add_argument("--compare", default="", help="another build (e.g. /work/main/build) whose reports under "
+                    "--work are scored beside: the injections both ran, side by side")
     args = ap.parse_args()
     args.multiples = [int(m) for m in args.multiples.split(",")]
     if args.quick:
@@ -289,7 +317,24 @@ def main():
         results = list(pool.map(lambda w: run_injection(args, w[0], dataset_robot(w[0]), logs[w[0]], w[1]), work))
     for (n, inj), res in zip(work, results):
         score(bases[n], inj, res)
-    text = table(work, f"{'quick' if args.quick else 'full'} run, {args.build}/agvcal")
+    text = table(work, f"{args.build}/agvcal")
+    if args.compare:
+        import copy
+        other = copy.copy(args)
+        other.build, other.label, other.score_only = args.compare, args.compare.strip("/").replace("/", "_"), True
+        base_b = {n: diagnose(other, None, None, os.path.join(args.work, other.label, n + ".json")) for n in names}
+        # Each build's own sizes (its own as-recorded detectable), paired by injection.
+        work_b = []
+        for n, inj in work:
+            mine = [i for i in plan(base_b[n], n, dataset_robot(n), args) if i["tag"] == inj["tag"]] \
+                if "error" not in base_b[n] and "not_run" not in base_b[n] else []
+            b = mine[0] if mine else dict(inj)
+            if mine:
+                score(base_b[n], b, run_injection(other, n, dataset_robot(n), logs[n], b))
+            else:
+                score(bases[n], b, {"not_run": "not run on that build"})
+            work_b.append((n, b))
+        text = side_by_side(work_b, work, args.compare, args.build) + "\n" + text
     print(text)
     if args.out:
         with open(args.out, "w") as f:
