@@ -93,12 +93,21 @@ StartingCalibrations Diagnoser::Calibrations() {
   CalibrationOptions co_offset = co;
   co_offset.check_observability = false;
   co_offset.estimate_time_offset = true;
-  co_offset.max_time_offset_s = kMaxOffsetS;
+  // The offset is searched over the widest range at once: a narrower search can settle inside its
+  // range on a minimum an encoder or scan period from a larger offset, and never widen.
+  co_offset.max_time_offset_s = kWidestTimeOffsetS;
   std::optional<CalibrationResult> cal_plain, cal_offset;
   std::optional<UnobservableError> refused;
   ParallelFor(2, WorkerThreads(options_.jobs), [&](std::size_t k) {
     if (k == 1) {
-      cal_offset = Calibrate(robot_, data_.wheels, data_.motions, data_.source, co_offset, origin_);
+      try {
+        cal_offset = Calibrate(robot_, data_.wheels, data_.motions, data_.source, co_offset, origin_);
+      } catch (const InputError&) {
+        // A recording too short for the widest range's margins: the narrower search widens itself.
+        CalibrationOptions narrower = co_offset;
+        narrower.max_time_offset_s = kMaxOffsetS;
+        cal_offset = Calibrate(robot_, data_.wheels, data_.motions, data_.source, narrower, origin_);
+      }
       return;
     }
     try {

@@ -16,14 +16,15 @@ struct Candidate {
   std::string name, layer, wheel;
   std::vector<int> beta;          // its effect terms (Beta)
   std::vector<std::string> keys;  // effects.md parameter keys
-  double plausible = 0;           // largest size a real robot plausibly shows
+  double plausible = 0;           // largest size plausible on the recording (diagnose_plausible.h)
   std::string excitation;         // motion that excites it
   std::string regressor;          // what its signature is binned by
   bool catalogued = true;         // in effects.md (else reported as unexplained structure)
 };
 
-// The candidates for `robot`'s drive and what `data` can test, in the catalogue's order.
-std::vector<Candidate> Candidates(const RobotDescription& robot, const DiagnoseData& data);
+// The candidates for `robot`'s drive and what `data` can test, in the catalogue's order; the time
+// offset searched within +-`max_offset_s`.
+std::vector<Candidate> Candidates(const RobotDescription& robot, const DiagnoseData& data, double max_offset_s);
 
 // The catalogue's confusable pairs, with the motion that separates each.
 const std::vector<ConfusablePair>& Confusable();

@@ -241,7 +241,7 @@ SelectionPass SelectOnRecording(const RobotDescription& robot, const DiagnoseDat
   const Fit f0 = FitBaseline(start.model, recording, &report);
 
   // Every candidate against the baseline.
-  const std::vector<Candidate> cands = Candidates(robot, data);
+  const std::vector<Candidate> cands = Candidates(robot, data, recording->max_offset_s);
   const int m_odo = static_cast<int>(cands.size());
   const int m_act = ActuationCandidates(robot, data);
   SelectionLevels& levels = pass.levels;

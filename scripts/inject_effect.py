@@ -1,0 +1,210 @@
+#!/usr/bin/env python3
+"""Writes a copy of a recording with one effect of spec/effects.md injected, exact in the
+diagnosis's own terms (libcalib/src/diagnose/diagnose_model.h, docs/effects.md), for the
+real-data injection suite (scripts/mismatch_real_injection.py, docs/mismatch-real-injection.md):
+
+  inject_effect.py IN.log OUT.log ROBOT.yaml slip S R1[,R2]      longitudinal_slip of S s^2/m
+  inject_effect.py IN.log OUT.log ROBOT.yaml eccentricity ROLE A P   wheel_eccentricity A, phase P rad
+  inject_effect.py IN.log OUT.log ROBOT.yaml backlash ROLE W      steering_backlash of width W rad
+  inject_effect.py IN.log OUT.log ROBOT.yaml offset CHANNEL D     every stamp on CHANNEL moved by D s
+
+The recorded wheel stream is taken as the truth the effect acts on; the new readings are those
+an encoder shows when the effect is present:
+- slip: each wheel's positions p' solve p'_j - S*R*v'_j^2/2 = p_j at every sample, v' the
+  diagnosis's speeds (central differences over about +-50 ms, diagnose_fit.cc MakeTrack) of p'
+  itself, R the wheel's radius (the model's: give the calibrated one); the model's distance lost
+  over any two samples is then the injected one to rounding. Solved by Newton: the equations of
+  samples j, j+-k form one tridiagonal chain per residue of j mod k.
+- eccentricity: ROLE's angle phi' solves phi' + A*(sin(phi' - P) + sin P) = phi (A < 1).
+- backlash: ROLE's steering reading gets + sign*W/2, sign the direction of the last steering motion
+  by the diagnosis's rule (2 mrad hysteresis) on the readings written.
+- offset: utime and the logger's stamp of every message on CHANNEL (WHEELS, SCAN, POSE) + D.
+Exits 3 (and writes nothing) when the effect at this size is not realisable on the recording
+(A >= 1, or the slip's equations have no solution near the recording: S*a reaches 1)."""
+import math
+import os
+import struct
+import sys
+
+sys.path.insert(0, os.path.join(os.path.dirname(os.path.dirname(os.path.abspath(__file__))), "tests", "tools"))
+from shift_scan_stamps import channel_events  # noqa: E402
+from wheel_log import wheel_fields  # noqa: E402
+
+STEER_HYSTERESIS = 0.002  # rad, diagnose_fit.cc MakeTrack
+SPEED_SPAN_S = 0.05       # half-width of the diagnosis's central differences
+
+
+class NotRealisable(Exception):
+    pass
+
+
+def wheel_roles(robot_path):
+    """role -> wheel name in the messages, from the robot file's `wheels:` mapping."""
+    import yaml
+    with open(robot_path) as f:
+        return dict(yaml.safe_load(f)["wheels"])
+
+
+def wheel_messages(data, src):
+    """[(event offset, body offset, utime offset, {name: position offset}, {name: steer offset})]."""
+    out = []
+    for event, body in channel_events(data, src, "WHEELS"):
+        msg = memoryview(data)[body:]
+        utime_at, positions = wheel_fields(msg)
+        n = len(positions)
+        # position[n], velocity[n], steer[n] follow each other (spec/messages.md)
+        steers = {name: at + 16 * n for name, at in positions.items()}
+        out.append((event, body, body + utime_at, {k: body + v for k, v in positions.items()},
+                    {k: body + v for k, v in steers.items()}))
+        del msg
+    if not out:
+        sys.exit(f"{src}: no message on WHEELS")
+    return out
+
+
+def get(data, at):
+    return struct.unpack_from(">d", data, at)[0]
+
+
+def put(data, at, value):
+    struct.pack_into(">d", data, at, value)
+
+
+def smoothing_k(utimes):
+    """The diagnosis's central-difference half-width in samples (diagnose_fit.cc MakeTrack)."""
+    n = len(utimes)
+    dt = (utimes[-1] - utimes[0]) * 1e-6 / (n - 1)
+    return max(1, int(math.floor(SPEED_SPAN_S / max(dt, 1e-4) + 0.5)))
+
+
+def solve_slip(g, utimes, slip, radius):
+    """p with p_j - slip*radius*v_j^2/2 = g_j, v the central differences of p (module doc)."""
+    n = len(g)
+    k = smoothing_k(utimes)
+    lo = [max(0, j - k) for j in range(n)]
+    hi = [min(n - 1, j + k) for j in range(n)]
+    span = [(utimes[hi[j]] - utimes[lo[j]]) * 1e-6 for j in range(n)]
+    h = 0.5 * slip * radius
+    p = list(g)
+    for _ in range(60):
+        v = [(p[hi[j]] - p[lo[j]]) / span[j] for j in range(n)]
+        f = [p[j] - h * v[j] * v[j] - g[j] for j in range(n)]
+        if max(abs(x) for x in f) < 1e-11:
+            return p
+        # Newton step within each chain j0, j0+k, ...: row j has 1 at j, -c at j+k, +c at j-k;
+        # a neighbour outside the chain (the clamped ends) is held (its change comes next pass).
+        step = [0.0] * n
+        for j0 in range(k):
+            idx = list(range(j0, n, k))
+            m = len(idx)
+            a, b, c, d = [0.0] * m, [1.0] * m, [0.0] * m, [-f[j] for j in idx]
+            for q, j in enumerate(idx):
+                cj = 2 * h * v[j] / span[j]
+                if q > 0 and lo[j] == idx[q - 1]:
+                    a[q] = cj
+                if q + 1 < m and hi[j] == idx[q + 1]:
+                    c[q] = -cj
+            for q in range(1, m):  # Thomas algorithm
+                w = a[q] / b[q - 1]
+                b[q] -= w * c[q - 1]
+                d[q] -= w * d[q - 1]
+                if not abs(b[q]) > 1e-9:
+                    raise NotRealisable("the slip's equations are singular on this recording")
+            x = [0.0] * m
+            x[m - 1] = d[m - 1] / b[m - 1]
+            for q in range(m - 2, -1, -1):
+                x[q] = (d[q] - c[q] * x[q + 1]) / b[q]
+            for q, j in enumerate(idx):
+                step[j] = x[q]
+        p = [p[j] + step[j] for j in range(n)]
+        if not all(math.isfinite(x) for x in p):
+            break
+    raise NotRealisable("the slip's equations do not converge on this recording (slip x acceleration reaches 1)")
+
+
+def solve_eccentricity(phi, amplitude, phase):
+    """phi' with phi' + A (sin(phi' - P) + sin P) = phi, per sample (Newton; monotone for A < 1)."""
+    if not amplitude < 1:
+        raise NotRealisable(f"an eccentricity amplitude of {amplitude} (>= 1) turns the wheel backwards")
+    out, x = [], phi[0]
+    for target in phi:
+        x = x if abs(x - target) < 2 * amplitude + 1 else target
+        for _ in range(100):
+            f = x + amplitude * (math.sin(x - phase) + math.sin(phase)) - target
+            if abs(f) < 1e-13:
+                break
+            x -= f / (1 + amplitude * math.cos(x - phase))
+        out.append(x)
+    return out
+
+
+def backlash_readings(steer, width):
+    """steer + sign*width/2, sign the direction of the last steering motion by MakeTrack's rule
+    applied to the readings written (so ties at the hysteresis fall the same way there)."""
+    out, sign, extreme = [], 0, steer[0]
+    for s in steer:
+        x = s + sign * width / 2
+        if sign >= 0 and x < extreme - STEER_HYSTERESIS:
+            sign = -1
+            x = extreme = s - width / 2
+        elif sign <= 0 and x > extreme + STEER_HYSTERESIS:
+            sign = 1
+            x = extreme = s + width / 2
+        elif (sign > 0 and x > extreme) or (sign < 0 and x < extreme):
+            extreme = x
+        out.append(x)
+    return out
+
+
+def inject(data, src, robot, effect, args):
+    if effect == "offset":
+        channel, shift_us = args[0], int(round(float(args[1]) * 1e6))
+        moved = 0
+        for event, body in channel_events(data, src, channel):
+            for at in (event + 12, body + 8):
+                struct.pack_into(">q", data, at, struct.unpack_from(">q", data, at)[0] + shift_us)
+            moved += 1
+        if moved == 0:
+            sys.exit(f"{src}: no message on {channel}")
+        return
+    roles = wheel_roles(robot)
+    msgs = wheel_messages(data, src)
+    utimes = [struct.unpack_from(">q", data, m[2])[0] for m in msgs]
+    if effect == "slip":
+        radii = [float(r) for r in args[1].split(",")]
+        for name, radius in zip(roles.values(), radii):
+            g = [get(data, m[3][name]) for m in msgs]
+            for m, value in zip(msgs, solve_slip(g, utimes, float(args[0]), radius)):
+                put(data, m[3][name], value)
+    elif effect == "eccentricity":
+        name = roles[args[0]]
+        phi = [get(data, m[3][name]) for m in msgs]
+        for m, value in zip(msgs, solve_eccentricity(phi, float(args[1]), float(args[2]))):
+            put(data, m[3][name], value)
+    elif effect == "backlash":
+        name = roles[args[0]]
+        steer = [get(data, m[4][name]) for m in msgs]
+        for m, value in zip(msgs, backlash_readings(steer, float(args[1]))):
+            put(data, m[4][name], value)
+    else:
+        sys.exit(f"unknown effect {effect} (slip, eccentricity, backlash, offset)")
+
+
+def main(argv):
+    if len(argv) < 6 or argv[1] in ("-h", "--help"):
+        print(__doc__)
+        return 0 if len(argv) > 1 and argv[1] in ("-h", "--help") else 2
+    src, dst, robot, effect = argv[1:5]
+    data = bytearray(open(src, "rb").read())
+    try:
+        inject(data, src, robot, effect, argv[5:])
+    except NotRealisable as e:
+        print(f"{src}: {effect} {' '.join(argv[5:])}: not realisable: {e}", file=sys.stderr)
+        return 3
+    with open(dst, "wb") as f:
+        f.write(data)
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main(sys.argv))
