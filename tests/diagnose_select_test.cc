@@ -334,17 +334,15 @@ TEST(DiagnoseSelect, ChosenEffectAndLookAlikeNeitherStandingAreIndistinguishable
   ASSERT_EQ(indist.size(), 1u);
   EXPECT_EQ(indist[0].first, "time_offset");
   EXPECT_DOUBLE_EQ(indist[0].correlation, 0.97);
-  // Both are reported indistinguishable, neither is kept in the model.
-  EXPECT_TRUE(s.chosen.empty());
-  EXPECT_TRUE(fits.model.empty());
-  EXPECT_EQ(out[0].status, CandidateStatus::kIndistinguishable);
+  // The pair is reported indistinguishable; the chosen one stays in the model.
+  EXPECT_EQ(s.chosen, std::vector<int>({0}));
   EXPECT_EQ(out[1].status, CandidateStatus::kIndistinguishable);
   EXPECT_EQ(out[1].note,
             "indistinguishable from time_offset (0.050 ± 0.060 s, p = 0.4 given time_offset); drive speed changes "
             "while driving straight");
   EXPECT_EQ(out[0].note,
             "indistinguishable from steering_lag with this recording (0.031 ± 0.024 s, p = 0.2 given steering_lag); "
-            "to separate them drive speed changes while driving straight");
+            "kept as the stronger alone; to separate them drive speed changes while driving straight");
 }
 
 TEST(DiagnoseSelect, EligibleLookAlikeOfAChosenEffectIsRejectedAsExplained) {
@@ -433,8 +431,8 @@ TEST(DiagnoseSelect, LookAlikeStandingOnlyOnTheFitBlocksLeavesBothIndistinguisha
   std::vector<Indistinguishable> indist;
   CheckLookAlikes(pairs, {true, true}, Levels(2), &s, &fits, &out, &indist);
   ASSERT_EQ(indist.size(), 1u);
-  EXPECT_TRUE(s.chosen.empty());
-  EXPECT_EQ(out[0].status, CandidateStatus::kIndistinguishable);
+  EXPECT_EQ(s.chosen, std::vector<int>({0}));
+  EXPECT_EQ(fits.model, Model({0}));
   EXPECT_EQ(out[1].status, CandidateStatus::kIndistinguishable);
 }
 

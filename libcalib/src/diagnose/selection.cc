@@ -200,16 +200,6 @@ void Replace(int ix, int iy, const StepTest& test, Selection* selection) {
   selection->chosen[n] = iy, selection->p[n] = test.p, selection->wald[n] = test.wald;
 }
 
-// Chosen candidate `ix` leaves the selection (its model refitted without it).
-void Remove(int ix, SelectionFits* fits, Selection* selection) {
-  fits->TryKeep(ix);
-  fits->Drop(ix);
-  const std::size_t n = std::find(selection->chosen.begin(), selection->chosen.end(), ix) - selection->chosen.begin();
-  selection->chosen.erase(selection->chosen.begin() + n);
-  selection->p.erase(selection->p.begin() + n);
-  selection->wald.erase(selection->wald.begin() + n);
-}
-
 }  // namespace
 
 void CheckLookAlikes(const std::vector<ConfusablePair>& catalogue, const std::vector<bool>& eligible,
@@ -269,12 +259,12 @@ void CheckLookAlikes(const std::vector<ConfusablePair>& catalogue, const std::ve
       }
     }
     // Neither stands given the other (or the one that does is not confirmed on data the fit
-    // never saw): the data cannot tell them apart.
-    Remove(ix, fits, selection);
+    // never saw): the data cannot tell them apart. The chosen one stays in the model (together
+    // they are significant, and it is the stronger alone), said to be indistinguishable.
     indistinguishable->push_back({x, y, joint.correlation, pair.motion});
-    out[ix].status = out[iy].status = CandidateStatus::kIndistinguishable;
-    out[ix].note = "indistinguishable from " + y + " with this recording (" + x_given + "); to separate them drive " +
-                   pair.motion;
+    out[iy].status = CandidateStatus::kIndistinguishable;
+    out[ix].note = "indistinguishable from " + y + " with this recording (" + x_given +
+                   "); kept as the stronger alone; to separate them drive " + pair.motion;
     out[iy].note = "indistinguishable from " + x + " (" + y_given + "); drive " + pair.motion;
   }
 }

@@ -168,9 +168,10 @@ void ReportSeededPair(const PairFit& seeded, const Selection& selection, std::ve
 // joint fit decides, not the order of the selection. The one that stands given the other is
 // kept, the look-alike replacing the chosen one when only it stands (held-out confirmed); both
 // are kept when each stands given the other (the look-alike added as in forward selection);
-// when neither stands both are indistinguishable with this recording, reported with the motion
-// that separates them and left out of the model. Every look-alike left out is noted with its
-// size and p given the other.
+// when neither stands (or the one that alone stands is not confirmed held-out) the pair is
+// indistinguishable with this recording, reported with the motion that separates them, the
+// chosen one kept in the model (the stronger alone). Each note gives the size and p given the
+// other.
 void CheckLookAlikes(const std::vector<ConfusablePair>& catalogue, const std::vector<bool>& eligible,
                      const SelectionLevels& levels, Selection* selection, SelectionFits* fits,
                      std::vector<CandidateOutcome>* outcomes, std::vector<Indistinguishable>* indistinguishable);
