@@ -6,6 +6,7 @@
 #include <algorithm>
 #include <cmath>
 #include <cstdio>
+#include <regex>
 #include <string>
 
 #include <nlohmann/json.hpp>
@@ -160,6 +161,9 @@ TEST(Calibration, StraightOnlyIsRefusedNamingTheParameters) {
   } catch (const UnobservableError& e) {
     const std::string what = e.what();
     EXPECT_NE(what.find("wheelbase"), std::string::npos) << what;
+    // The refusal shows what it refused: the estimate, its sigma and the sigma asked for.
+    EXPECT_TRUE(std::regex_search(what, std::regex("wheelbase -?[0-9.]+ ± ([0-9.]+|undetermined) m, determined only below [0-9.]+ m")))
+        << what;
     EXPECT_NE(e.remedy().find("steering angles"), std::string::npos) << e.remedy();
   }
 }

@@ -16,6 +16,7 @@
 #include "calib/calibrate/interval_model.h"
 #include "calib/calibrate/interval_problem.h"
 #include "calib/calibrate/time_offset_search.h"
+#include "calib/calibrate/undetermined.h"
 #include "calib/core/errors.h"
 #include "calib/core/statistics.h"
 #include "calib/core/units.h"
@@ -490,14 +491,22 @@ void SetEstimates(const State& state, const State& nominal, const std::vector<do
 void RefuseUndetermined(DriveType drive, const State& nominal, const std::vector<double>& sigma,
                         bool check, const std::string& origin, CalibrationResult* result) {
   const int num_params = static_cast<int>(result->param_names.size());
-  std::vector<std::string> refused, remedies;
+  std::vector<std::string> refused, remedies, figures;
   const double nominal_values[] = {nominal.params[0], nominal.params[1], nominal.params[2],
                                    nominal.params[3], nominal.params[4]};
+  // The estimates in covariance order (SetEstimates), so a refusal shows what it refused.
+  std::vector<double> values;
+  for (int i = 0; i < num_params; ++i) values.push_back(result->params[result->param_names[i]].value);
+  for (const Estimate& e : {result->mount_x, result->mount_y, result->mount_yaw}) values.push_back(e.value);
+  if (result->time_offset) values.push_back(result->time_offset->value);
   for (std::size_t i = 0; i < sigma.size(); ++i) {
     const std::string& name = result->estimated_names[i];
     const Requirement req = RequirementFor(drive, name, int(i) < num_params ? nominal_values[i] : 0.0);
     if (!(sigma[i] <= req.refuse)) {
       refused.push_back(name);
+      const std::string unit = ParamUnit(name);
+      figures.push_back(name + " " + EstimateText(i < values.size() ? values[i] : NAN, sigma[i], unit) +
+                        ", determined only below " + QuantityText(req.refuse, unit, 2));
       if (std::find(remedies.begin(), remedies.end(), req.remedy) == remedies.end())
         remedies.push_back(req.remedy);
     } else if (sigma[i] > 0.1 * req.refuse) {
@@ -508,6 +517,9 @@ void RefuseUndetermined(DriveType drive, const State& nominal, const std::vector
     std::ostringstream what, remedy;
     what << origin << ": the recording cannot determine ";
     for (std::size_t i = 0; i < refused.size(); ++i) what << (i ? ", " : "") << refused[i];
+    what << " (";
+    for (std::size_t i = 0; i < figures.size(); ++i) what << (i ? "; " : "") << figures[i];
+    what << ")";
     for (std::size_t i = 0; i < remedies.size(); ++i) remedy << (i ? "; " : "") << remedies[i];
     throw UnobservableError(what.str(), remedy.str());
   }
@@ -645,6 +657,10 @@ CalibrationResult Conclude(const RobotDescription& robot, const WheelTrack& whee
 }
 
 }  // namespace
+
+double UndeterminedAbove(DriveType drive, const std::string& name, double nominal) {
+  return RequirementFor(drive, name, nominal).refuse;
+}
 
 CalibrationResult Calibrate(const RobotDescription& robot, const WheelTrack& wheels,
                             const std::vector<SensorMotion>& motions, MotionSource source,

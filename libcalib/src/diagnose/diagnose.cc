@@ -15,8 +15,11 @@
 #include <vector>
 
 #include "calib/calibrate/calibration.h"
+#include "calib/calibrate/undetermined.h"
 #include "calib/core/errors.h"
 #include "calib/core/progress.h"
+#include "calib/core/units.h"
+#include "diagnose/diagnose_candidates.h"
 #include "diagnose/diagnose_describe.h"
 #include "diagnose/diagnose_fit.h"
 #include "diagnose/diagnose_internal.h"
@@ -45,6 +48,7 @@ class Diagnoser {
     if (options_.progress) options_.progress(line);
   }
   StartingCalibrations Calibrations();
+  CalibrationResult WithCandidateInside(const CalibrationResult& unchecked, const UnobservableError& refused);
   SelectionStart StartFrom(const CalibrationResult& calibration, double time_offset_s);
   SelectionPass SelectUntilTheGateHolds(const SelectionStart& start);
 
@@ -127,10 +131,7 @@ StartingCalibrations Diagnoser::Calibrations() {
       notes_.push_back("the calibration without a time offset refuses (" + std::string(refused->what()) +
                        "); the one with the offset is the start");
     } catch (const UnobservableError&) {
-      const std::string what = refused->what();
-      throw UnobservableError(what.substr(0, what.size() - std::min(what.size(), refused->remedy().size() + 2)) +
-                                  ", so the calibration the diagnosis compares with cannot be made",
-                              refused->remedy());
+      cal_plain = WithCandidateInside(*cal_offset, *refused);
     }
   }
   if (cal_offset->time_offset_bound_s > recording_.max_offset_s) {
@@ -139,6 +140,72 @@ StartingCalibrations Diagnoser::Calibrations() {
     BuildIntervals(robot_, data_, options_.block_s, origin_, &recording_);
   }
   return {std::move(*cal_plain), std::move(*cal_offset)};
+}
+
+// A strong effect the calibration leaves out can make it refuse: its residual swamps what the
+// drive parameters explain. Before giving up, each candidate of the catalogue is fitted inside the
+// baseline (from the calibration's unchecked values); the one that determines everything with the
+// lowest chi-square gives the start (its values and stds). When none does, the refusal names
+// only what stays undetermined with the best of them, with estimate and sigma.
+CalibrationResult Diagnoser::WithCandidateInside(const CalibrationResult& unchecked,
+                                                 const UnobservableError& refused) {
+  const std::vector<std::string>& names = ParamNames(robot_.drive);
+  const std::string sensor = MotionSourceName(data_.source);
+  const std::string estimate_names[3] = {sensor + ".x", sensor + ".y", sensor + ".yaw"};
+  Model start;
+  for (int i = 0; i < recording_.num_params; ++i) start.params[i] = unchecked.params.at(names[i]).value;
+  const Estimate* mount[3] = {&unchecked.mount_x, &unchecked.mount_y, &unchecked.mount_yaw};
+  for (int k = 0; k < 3; ++k) start.mount[k] = mount[k]->value;
+  start.beta[kTimeOffset] = unchecked.time_offset ? unchecked.time_offset->value : 0.0;
+  for (int i = recording_.num_params; i < 5; ++i) recording_.held_params.push_back(i);
+  recording_.noise_scale2 = 1.0;
+  Gate({FitModel(recording_, start, {kTimeOffset}, {}).m}, &recording_);
+  // What stays undetermined under fit `f`, as "name estimate ± sigma" (empty: nothing).
+  auto undetermined = [&](const Fit& f) {
+    std::vector<std::string> out;
+    for (int i = 0; i < 5 + 3; ++i) {
+      if (i >= recording_.num_params && i < 5) continue;
+      const std::string name = i < 5 ? names[i] : estimate_names[i - 5];
+      const double value = i < 5 ? f.m.params[i] : f.m.mount[i - 5];
+      const double nominal = i < 5 ? robot_.params.at(names[i]) : 0.0;
+      if (!(f.calibration_std[i] <= UndeterminedAbove(robot_.drive, name, nominal)))
+        out.push_back(name + " " + EstimateText(value, f.calibration_std[i], ParamUnit(name)));
+    }
+    return out;
+  };
+  const std::vector<Candidate> cands = Candidates(robot_, data_);
+  int best = -1;
+  Fit best_fit;
+  std::vector<std::string> best_left;
+  for (std::size_t j = 0; j < cands.size(); ++j) {
+    std::vector<int> free = cands[j].beta;
+    if (cands[j].beta[0] != kTimeOffset) free.push_back(kTimeOffset);
+    Fit f = FitModel(recording_, start, free, {});
+    const std::vector<std::string> left = undetermined(f);
+    if (best < 0 || left.size() < best_left.size() ||
+        (left.size() == best_left.size() && f.chi2_fit < best_fit.chi2_fit))
+      best = int(j), best_fit = std::move(f), best_left = left;
+  }
+  recording_.held_params.clear();
+  for (Interval& it : recording_.intervals) it.outlier = false;
+  const std::string refused_what = refused.what();
+  const std::string cause = refused_what.substr(0, refused_what.size() - std::min(refused_what.size(), refused.remedy().size() + 2));
+  const std::string with = best < 0 ? "" : cands[best].name + (cands[best].wheel.empty() ? "" : " (" + cands[best].wheel + ")");
+  if (best < 0 || !best_left.empty()) {
+    std::string what = origin_ + ": the recording cannot determine ";
+    for (std::size_t k = 0; k < best_left.size(); ++k) what += (k ? "; " : "") + best_left[k];
+    throw UnobservableError(what + (best < 0 ? "" : " even with " + with + " modelled inside the baseline") +
+                                ", so the calibration the diagnosis compares with cannot be made (" + cause + ")",
+                            refused.remedy());
+  }
+  CalibrationResult out = unchecked;
+  for (int i = 0; i < recording_.num_params; ++i)
+    out.params[names[i]] = {best_fit.m.params[i], best_fit.calibration_std[i], robot_.params.at(names[i])};
+  Estimate* out_mount[3] = {&out.mount_x, &out.mount_y, &out.mount_yaw};
+  for (int k = 0; k < 3; ++k) out_mount[k]->value = best_fit.m.mount[k], out_mount[k]->std = best_fit.calibration_std[5 + k];
+  notes_.push_back("the calibration refuses (" + cause + "); with " + with +
+                   " modelled inside the baseline the recording determines every parameter: its values are the start");
+  return out;
 }
 
 // The calibration's values as the model to start from; a drive parameter the recording does not

@@ -229,6 +229,9 @@ void FitStatistics(const Recording& recording, Fit* fit) {
   const Eigen::MatrixXd full = Hinv * M * Hinv;
   const int nb = static_cast<int>(free.size());
   fit->cov = full.block(np + 3, np + 3, nb, nb);
+  fit->calibration_std.assign(8, std::nan(""));
+  for (int c = 0; c < np; ++c) fit->calibration_std[active[c]] = std::sqrt(std::max(full(c, c), 0.0));
+  for (int c = 0; c < 3; ++c) fit->calibration_std[5 + c] = std::sqrt(std::max(full(np + c, np + c), 0.0));
   fit->info_cov = Hinv.block(np + 3, np + 3, nb, nb);
   const std::vector<int>& tested = fit->tested;
   if (!tested.empty()) {

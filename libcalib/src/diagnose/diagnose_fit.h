@@ -72,6 +72,9 @@ struct Fit {
   int n_fit = 0, n_heldout = 0;
   int dof = 1;                 // 3 n_fit less the parameters fitted
   Eigen::MatrixXd cov;         // robust covariance of the free effect parameters
+  // Robust std of the calibration: the drive parameters (ParamNames order, NaN where held) and
+  // the mount (x, y, yaw), 8 entries.
+  std::vector<double> calibration_std;
   Eigen::MatrixXd info_cov;    // the same from the information alone (H^-1: independent residuals)
   double wald = 0, p = 1;      // of the free effect parameters named in `tested`
   std::vector<int> tested;

@@ -142,6 +142,23 @@ std::string DiagnoseReportJson(const DiagnoseReport& r) {
   for (const Indistinguishable& d : r.indistinguishable)
     j["indistinguishable"].push_back({{"effects", {d.first, d.second}}, {"correlation", Number(d.correlation)},
                                       {"separating_motion", d.motion}});
+  j["borderline"] = nlohmann::json::array();
+  for (const Borderline& b : r.borderline) {
+    nlohmann::json jb = {{"name", b.name}, {"status", CandidateStatusName(b.status)}, {"p_value", Number(b.p_value)},
+                         {"alpha", Number(b.alpha)}, {"heldout_change", Number(b.heldout_change)},
+                         {"heldout_confirmed", b.heldout_confirmed}};
+    if (!b.wheel.empty()) jb["wheel"] = b.wheel;
+    j["borderline"].push_back(jb);
+  }
+  j["moved"] = nlohmann::json::array();
+  for (const MovedEffect& m : r.moved) {
+    nlohmann::json jm = {{"name", m.name},
+                         {"alone", {{"value", Number(m.alone.value)}, {"std", Number(m.alone.std)}}},
+                         {"with_others", {{"value", Number(m.with_others.value)}, {"std", Number(m.with_others.std)}}},
+                         {"others", m.others}};
+    if (!m.wheel.empty()) jm["wheel"] = m.wheel;
+    j["moved"].push_back(jm);
+  }
   j["candidates"] = nlohmann::json::array();
   for (const CandidateOutcome& c : r.candidates) {
     nlohmann::json jc = {{"name", c.name}, {"layer", c.layer}, {"status", CandidateStatusName(c.status)},
@@ -249,6 +266,26 @@ std::string DiagnoseSummaryText(const DiagnoseReport& r) {
     s << "\nINDISTINGUISHABLE: " << d.first << " and " << d.second << " (correlation " << d.correlation
       << "); to tell them apart drive " << d.motion << ".\n";
   bool header = false;
+  for (const Borderline& b : r.borderline) {
+    if (!header) s << "\nBORDERLINE decisions (p within a factor " << kBorderlineFactor
+                   << " of the level: a small change to the recording can flip them):\n";
+    header = true;
+    s << "  " << b.name << (b.wheel.empty() ? "" : " (" + b.wheel + ")") << " " << CandidateStatusName(b.status) << ": "
+      << PValueText(b.p_value) << " at alpha " << b.alpha << "; held-out chi2 " << FixedDecimals(-100 * b.heldout_change, 1)
+      << " % change with it alone, " << (b.heldout_confirmed ? "confirmed" : "not confirmed") << " on the held-out blocks\n";
+  }
+  header = false;
+  for (const MovedEffect& m : r.moved) {
+    if (!header) s << "\nMOVED by the other effects found (size alone -> with them, more than 2 sigma apart):\n";
+    header = true;
+    const std::string unit = ParamUnit(EffectSizeKey(m.name));
+    s << "  " << m.name << (m.wheel.empty() ? "" : " (" + m.wheel + ")") << ": "
+      << EstimateText(m.alone.value, m.alone.std, unit) << " -> " << EstimateText(m.with_others.value, m.with_others.std, unit)
+      << " with";
+    for (std::size_t k = 0; k < m.others.size(); ++k) s << (k ? ", " : " ") << m.others[k];
+    s << "\n";
+  }
+  header = false;
   // Candidates significant by their Wald statistic but not found: the look-alikes rejected,
   // and where the Wald test and the BIC gate or held-out proof disagree, why.
   for (const CandidateOutcome& c : r.candidates) {

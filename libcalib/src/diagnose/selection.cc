@@ -52,6 +52,8 @@ SingleVerdicts JudgeSingles(const std::vector<SingleFit>& fits, const SelectionL
     o.delta_bic = f.delta_bic;
     o.estimate = f.estimate;
     o.detectable = DetectableSize(f, levels);
+    o.heldout_change = f.heldout_gain;
+    o.heldout_confirmed = f.heldout_confirmed;
     // The Wald statistic rests on a linearisation and a robust variance; where the model is
     // far from linear in the parameter (a lag near its bound) or the regressor acts on a few
     // intervals only (their variance estimated from a handful of residuals), it can overstate
@@ -185,30 +187,85 @@ void ReportSeededPair(const PairFit& seeded, const Selection& selection, std::ve
   }
 }
 
+namespace {
+
+// "0.19 ± 0.03 s²/m, p = 2e-05 given time_offset": a look-alike's size and test given the other.
+std::string GivenText(const std::string& name, const ParamEstimate& e, double p, const std::string& other) {
+  return EstimateText(e.value, e.std, ParamUnit(EffectSizeKey(name))) + ", " + PValueText(p) + " given " + other;
+}
+
+// Chosen candidate `ix` leaves the selection in favour of `iy` (its place in the order kept).
+void Replace(int ix, int iy, const StepTest& test, Selection* selection) {
+  const std::size_t n = std::find(selection->chosen.begin(), selection->chosen.end(), ix) - selection->chosen.begin();
+  selection->chosen[n] = iy, selection->p[n] = test.p, selection->wald[n] = test.wald;
+}
+
+}  // namespace
+
 void CheckLookAlikes(const std::vector<ConfusablePair>& catalogue, const std::vector<bool>& eligible,
-                     const SelectionLevels& levels, const Selection& selection, SelectionFits* fits,
+                     const SelectionLevels& levels, Selection* selection, SelectionFits* fits,
                      std::vector<CandidateOutcome>* outcomes, std::vector<Indistinguishable>* indistinguishable) {
-  const std::vector<int>& chosen = selection.chosen;
   std::vector<CandidateOutcome>& out = *outcomes;
+  auto chosen = [&](int j) {
+    return std::find(selection->chosen.begin(), selection->chosen.end(), j) != selection->chosen.end();
+  };
+  auto index = [&](const std::string& name) {
+    for (std::size_t j = 0; j < out.size(); ++j)
+      if (out[j].name == name) return int(j);
+    return -1;
+  };
   for (const ConfusablePair& pair : catalogue) {
-    for (int side = 0; side < 2; ++side) {
-      const std::string x = side ? pair.b : pair.a, y = side ? pair.a : pair.b;
-      int ix = -1, iy = -1;
-      for (int j : chosen) if (out[j].name == x) ix = j;
-      for (std::size_t j = 0; j < out.size(); ++j) if (out[j].name == y) iy = int(j);
-      if (ix < 0 || iy < 0 || std::find(chosen.begin(), chosen.end(), iy) != chosen.end()) continue;
-      const LookAlikeFit joint = fits->FitLookAlike(ix, iy);
-      const double level = levels.alpha / levels.candidates;
-      if (joint.p_x >= level && joint.p_y >= level) {
-        indistinguishable->push_back({x, y, joint.correlation, pair.motion});
-        out[iy].status = CandidateStatus::kIndistinguishable;
-        out[ix].note = "indistinguishable from " + y + " with this recording; to separate them drive " + pair.motion;
-        out[iy].note = "indistinguishable from " + x + "; drive " + pair.motion;
-      } else if (eligible[iy]) {
+    const int ia = index(pair.a), ib = index(pair.b);
+    if (ia < 0 || ib < 0 || chosen(ia) == chosen(ib)) continue;
+    const int ix = chosen(ia) ? ia : ib, iy = chosen(ia) ? ib : ia;
+    const std::string x = out[ix].name, y = out[iy].name;
+    // Each fitted given the other: the evidence decides which stands, not which came first.
+    const LookAlikeFit joint = fits->FitLookAlike(ix, iy);
+    const double level = levels.alpha / levels.candidates;
+    const bool x_stands = joint.p_x < level, y_stands = joint.p_y < level;
+    const std::string y_given = GivenText(y, joint.y, joint.p_y, x), x_given = GivenText(x, joint.x, joint.p_x, y);
+    const std::string correlation = "correlation of the estimates " + SignificantText(joint.correlation, 2);
+    if (x_stands && !y_stands) {
+      if (eligible[iy]) out[iy].status = CandidateStatus::kRejected;
+      if (eligible[iy] || out[iy].note.empty())
+        out[iy].note = "explained by " + x + " (" + y_given + "; " + correlation + ")";
+      continue;
+    }
+    if (y_stands) {
+      // Only the look-alike stands given the other: it replaces the chosen one; both stand: it
+      // joins it. Either way as a forward step: paying in BIC and confirmed on held-out data.
+      const StepTest test = x_stands ? fits->TryAdd(iy) : fits->TrySwap(ix, iy);
+      const bool pays = test.delta_bic < 0;
+      const bool confirmed = test.p < level && pays && (x_stands ? fits->AddConfirmed(iy) : fits->SwapConfirmed(ix, iy));
+      if (confirmed && x_stands) {
+        fits->Add(iy);
+        selection->chosen.push_back(iy), selection->p.push_back(test.p), selection->wald.push_back(test.wald);
+        out[iy].note = "stands given " + x + " (" + y_given + "; " + correlation + ")";
+        continue;
+      }
+      if (confirmed) {
+        fits->Swap(ix, iy);
+        Replace(ix, iy, test, selection);
+        out[ix].status = CandidateStatus::kRejected;
+        out[ix].note = "explained by " + y + " (" + x_given + "; " + correlation + ")";
+        out[iy].note = "stands given " + x + ", which does not given it (" + y_given + "; " + correlation + ")";
+        continue;
+      }
+      if (x_stands) {
         out[iy].status = CandidateStatus::kRejected;
-        out[iy].note = "explained by " + x + " (correlation of the estimates " + std::to_string(joint.correlation) + ")";
+        out[iy].note = "stands given " + x + " (" + y_given + ") but " +
+                       (pays ? "is not confirmed on the held-out blocks" : "does not pay for its parameter");
+        continue;
       }
     }
+    // Neither stands given the other (or the one that does is not confirmed on data the fit
+    // never saw): the data cannot tell them apart. The chosen one stays in the model (together
+    // they are significant, and it is the stronger alone), said to be indistinguishable.
+    indistinguishable->push_back({x, y, joint.correlation, pair.motion});
+    out[iy].status = CandidateStatus::kIndistinguishable;
+    out[ix].note = "indistinguishable from " + y + " with this recording (" + x_given +
+                   "); kept as the stronger alone; to separate them drive " + pair.motion;
+    out[iy].note = "indistinguishable from " + x + " (" + y_given + "); drive " + pair.motion;
   }
 }
 
@@ -218,6 +275,48 @@ void MarkFound(const Selection& selection, const std::vector<bool>& eligible,
     (*outcomes)[j].status = CandidateStatus::kFound;
     if (!eligible[j]) (*outcomes)[j].note = "significant given the other effects found";
   }
+}
+
+std::vector<Borderline> BorderlineDecisions(const std::vector<CandidateOutcome>& outcomes, const Selection& selection,
+                                            const SelectionLevels& levels) {
+  // In the units of the catalogue-wide p-values (CandidateOutcome::p_adjusted): Holm's over
+  // these candidates scaled to the whole catalogue, at the family-wise level.
+  const double share = double(levels.candidates + levels.actuation_candidates) / std::max(1, levels.candidates);
+  const double alpha = levels.alpha * share;
+  std::vector<Borderline> out;
+  for (std::size_t j = 0; j < outcomes.size(); ++j) {
+    const CandidateOutcome& o = outcomes[j];
+    const auto at = std::find(selection.chosen.begin(), selection.chosen.end(), int(j));
+    double p = o.p_adjusted;
+    if (at != selection.chosen.end()) {
+      p = std::min(1.0, selection.p[at - selection.chosen.begin()] * levels.candidates * share);
+      if (!(p > alpha / kBorderlineFactor)) continue;
+    } else if (o.status == CandidateStatus::kNotIdentifiable || o.status == CandidateStatus::kIndistinguishable ||
+               !(p > alpha / kBorderlineFactor && p < alpha * kBorderlineFactor)) {
+      continue;
+    }
+    out.push_back({o.name, o.wheel, o.status, p, alpha, o.heldout_change, o.heldout_confirmed});
+  }
+  return out;
+}
+
+std::vector<MovedEffect> MovedEffects(const std::vector<FoundEffect>& effects,
+                                      const std::vector<CandidateOutcome>& outcomes) {
+  std::vector<MovedEffect> out;
+  for (const FoundEffect& e : effects) {
+    const auto size = e.params.find(EffectSizeKey(e.name));
+    if (size == e.params.end()) continue;
+    for (const CandidateOutcome& o : outcomes) {
+      if (o.name != e.name || o.wheel != e.wheel) continue;
+      const ParamEstimate& with = size->second;
+      if (!(std::abs(with.value - o.estimate.value) > 2 * std::max(with.std, o.estimate.std))) continue;
+      MovedEffect m{e.name, e.wheel, o.estimate, with, {}};
+      for (const FoundEffect& other : effects)
+        if (&other != &e) m.others.push_back(other.name + (other.wheel.empty() ? "" : " (" + other.wheel + ")"));
+      out.push_back(m);
+    }
+  }
+  return out;
 }
 
 Selection SelectEffects(const std::vector<ConfusablePair>& catalogue, const std::vector<PairFit>& pairs,
@@ -237,7 +336,7 @@ Selection SelectEffects(const std::vector<ConfusablePair>& catalogue, const std:
   if (selection.seeded >= 0) ReportSeededPair(pairs[selection.seeded], selection, outcomes, indistinguishable);
   // A chosen effect fitted together with its look-alike: when neither stands on its own given
   // the other, the data cannot tell them apart.
-  CheckLookAlikes(catalogue, eligible, levels, selection, fits, outcomes, indistinguishable);
+  CheckLookAlikes(catalogue, eligible, levels, &selection, fits, outcomes, indistinguishable);
   MarkFound(selection, eligible, outcomes);
   return selection;
 }

@@ -5,6 +5,8 @@
 #include <algorithm>
 #include <cmath>
 
+#include <Eigen/Dense>
+
 #include "calib/core/progress.h"
 #include "calib/core/statistics.h"
 #include "diagnose/diagnose_candidates.h"
@@ -37,6 +39,9 @@ class RecordingFits : public SelectionFits {
   bool KeepConfirmed(int j) override;
   void Drop(int j) override;
   LookAlikeFit FitLookAlike(int x, int y) override;
+  StepTest TrySwap(int x, int y) override;
+  bool SwapConfirmed(int x, int y) override;
+  void Swap(int x, int y) override;
 
  private:
   const Recording& recording_;
@@ -49,7 +54,7 @@ class RecordingFits : public SelectionFits {
   std::vector<PairFit> pairs_;
   std::vector<Fit> joints_;  // per pair
   std::vector<Fit> trials_;  // per candidate: its last TryAdd
-  Fit with_, without_;       // the last TryKeep
+  Fit with_, without_;       // the last TryKeep, or TrySwap (the model with the look-alike, without both)
   std::vector<int> others_;  // free in `without_`
 };
 
@@ -198,21 +203,65 @@ bool RecordingFits::KeepConfirmed(int j) { return HeldoutConfirms(recording_, ca
 
 void RecordingFits::Drop(int j) { current_ = FitModel(recording_, without_.m, others_, {}); }
 
+// A candidate's size in `f` (the norm of a two-parameter effect) and its std, its terms at
+// positions `at` of `f`'s free parameters.
+ParamEstimate SizeIn(const Fit& f, const Candidate& c, const std::vector<int>& at) {
+  double var = 0;
+  for (int i : at) var += f.cov(i, i) / at.size();
+  const double size = c.beta.size() == 2 ? std::hypot(f.m.beta[c.beta[0]], f.m.beta[c.beta[1]]) : f.m.beta[c.beta[0]];
+  return {size, std::sqrt(std::max(var, 0.0))};
+}
+
+// Where effect `c`'s terms sit among `free`.
+std::vector<int> PlacesOf(const Candidate& c, const std::vector<int>& free) {
+  std::vector<int> at;
+  for (int b : c.beta) at.push_back(int(std::find(free.begin(), free.end(), b) - free.begin()));
+  return at;
+}
+
 LookAlikeFit RecordingFits::FitLookAlike(int x, int y) {
-  const int bx = cands_[x].beta[0], by = cands_[y].beta[0];
+  const Candidate &cx = cands_[x], &cy = cands_[y];
   std::vector<int> free = current_.free;
-  free.push_back(by);
+  free.insert(free.end(), cy.beta.begin(), cy.beta.end());
   Model startm = current_.m;
-  startm.beta[by] = single_[y].m.beta[by];
-  const Fit joint = FitModel(recording_, startm, free, {by});
-  const int a = int(std::find(free.begin(), free.end(), bx) - free.begin());
-  const int b = int(free.size()) - 1;
+  for (int b : cy.beta) startm.beta[b] = single_[y].m.beta[b];
+  Fit joint = FitModel(recording_, startm, free, cy.beta);
+  // From the current model the chosen one has taken up the look-alike's share (a time offset's
+  // cost has minima a sample period apart): from its own single fit too, and the better fit.
+  for (int b : cx.beta) startm.beta[b] = single_[x].m.beta[b];
+  Fit from_single = FitModel(recording_, startm, free, cy.beta);
+  if (from_single.chi2_fit < joint.chi2_fit) joint = std::move(from_single);
+  const std::vector<int> ax = PlacesOf(cx, free), ay = PlacesOf(cy, free);
   LookAlikeFit out;
-  out.correlation = Correlation(joint.cov, a, b);
-  out.p_x = joint.cov(a, a) > 0 ? ChiSquareUpperTail(std::pow(joint.m.beta[bx], 2) / joint.cov(a, a), 1) : 1.0;
+  out.correlation = Correlation(joint.cov, ax[0], ay[0]);
+  out.x = SizeIn(joint, cx, ax), out.y = SizeIn(joint, cy, ay);
+  // x's Wald statistic given y (and the rest), over as many degrees as it has terms.
+  Eigen::VectorXd b(ax.size());
+  Eigen::MatrixXd v(ax.size(), ax.size());
+  for (std::size_t i = 0; i < ax.size(); ++i) {
+    b(i) = joint.m.beta[cx.beta[i]];
+    for (std::size_t k = 0; k < ax.size(); ++k) v(i, k) = joint.cov(ax[i], ax[k]);
+  }
+  const bool usable = v.determinant() > 0;
+  out.p_x = usable ? ChiSquareUpperTail(b.dot(v.ldlt().solve(b)), int(ax.size())) : 1.0;
   out.p_y = joint.p;
   return out;
 }
+
+StepTest RecordingFits::TrySwap(int x, int y) {
+  const Candidate& c = cands_[y];
+  without_ = FitWithout(recording_, current_, cands_[x].beta, &others_);
+  std::vector<int> free = others_;
+  free.insert(free.end(), c.beta.begin(), c.beta.end());
+  Model startm = without_.m;
+  for (int b : c.beta) startm.beta[b] = single_[y].m.beta[b];
+  with_ = FitModel(recording_, startm, free, c.beta);
+  return {with_.p, with_.wald, DeltaBicAt(without_, f0_, with_.chi2_fit, without_.chi2_fit, c.beta.size(), log_n_)};
+}
+
+bool RecordingFits::SwapConfirmed(int, int y) { return HeldoutConfirms(recording_, cands_[y], without_, with_); }
+
+void RecordingFits::Swap(int, int) { current_ = with_; }
 
 // The fits the report stands on that stopped short of convergence, as warnings.
 void NoteUnconverged(const std::vector<Candidate>& cands, const std::vector<Fit>& single, const RecordingFits& fits,
@@ -266,6 +315,8 @@ SelectionPass SelectOnRecording(const RobotDescription& robot, const DiagnoseDat
   ReportFound(*recording, cands, selection, levels, f0, current, log_n, &report);
   ReportCalibration(*recording, data.source, f0, current, *start.calibration, &report);
   report.candidates = verdicts.outcomes;
+  report.borderline = BorderlineDecisions(verdicts.outcomes, selection, levels);
+  report.moved = MovedEffects(report.effects, verdicts.outcomes);
   TestRegions(*recording, cands, current, levels, &report);
   NoteUnconverged(cands, single, fits, f0, &report);
   pass.chosen = current.m;

@@ -199,6 +199,31 @@ struct CandidateOutcome {
   // The same when its confusable look-alike is fitted too (both present): by look-alike.
   std::map<std::string, double> detectable_with;
   std::string note;       // e.g. the motion that would excite it
+  // Fitted alone: how much lower, as a fraction, the held-out chi-square is with it, and
+  // whether a held-out test confirms it.
+  double heldout_change = 0;
+  bool heldout_confirmed = false;
+};
+
+// A decision near its gate, which an unrelated change to the recording (another effect, a
+// few intervals more or less) can flip: an effect found, or significant alone but not found,
+// whose catalogue-wide p lies within a factor kBorderlineFactor of the level.
+inline constexpr double kBorderlineFactor = 10.0;
+struct Borderline {
+  std::string name, wheel;
+  CandidateStatus status = CandidateStatus::kNotSignificant;
+  double p_value = 1;  // catalogue-wide: a found effect's given the others found, else alone
+  double alpha = 0;    // the family-wise level it is judged at
+  double heldout_change = 0;  // CandidateOutcome::heldout_change
+  bool heldout_confirmed = false;
+};
+
+// An effect found whose size with the other effects found differs by more than two sigma from
+// its size alone: it depends on them (and moves when they do).
+struct MovedEffect {
+  std::string name, wheel;
+  ParamEstimate alone, with_others;
+  std::vector<std::string> others;  // the other effects found
 };
 
 struct Indistinguishable {
@@ -224,6 +249,8 @@ struct DiagnoseReport {
   std::vector<FoundEffect> effects;
   std::vector<CandidateOutcome> candidates;
   std::vector<Indistinguishable> indistinguishable;
+  std::vector<Borderline> borderline;
+  std::vector<MovedEffect> moved;
   std::vector<Unexplained> unexplained;
   std::vector<DiagnosedInterval> intervals;
   double heldout_rms_before[3] = {0, 0, 0}, heldout_rms_after[3] = {0, 0, 0};

@@ -98,6 +98,7 @@ struct StepTest {
 struct LookAlikeFit {
   double p_x = 1, p_y = 1;  // each given the other (and the rest of the model)
   double correlation = 0;   // of the two estimates
+  ParamEstimate x, y;       // each size given the other (the norm of a two-parameter effect)
 };
 
 // The fits the selection asks for. It holds the current model, which starts as the baseline
@@ -124,6 +125,12 @@ class SelectionFits {
   virtual void Drop(int j) = 0;
   // Candidate `x` (in the model) with its look-alike `y` (not in it) added.
   virtual LookAlikeFit FitLookAlike(int x, int y) = 0;
+  // Candidate `x` (in the model) replaced by `y` (not in it): `y` tested given the others.
+  virtual StepTest TrySwap(int x, int y) = 0;
+  // Whether the held-out blocks confirm `y` against the last TrySwap(x, y)'s model without both.
+  virtual bool SwapConfirmed(int x, int y) = 0;
+  // The current model becomes the last TrySwap(x, y)'s.
+  virtual void Swap(int x, int y) = 0;
 };
 
 // The effects chosen, in the order chosen, with their tests given all the others.
@@ -157,15 +164,32 @@ void EliminateBackward(const SelectionLevels& levels, SelectionFits* fits, Selec
 void ReportSeededPair(const PairFit& seeded, const Selection& selection, std::vector<CandidateOutcome>* outcomes,
                       std::vector<Indistinguishable>* indistinguishable);
 
-// Each chosen candidate fitted with its look-alike from `catalogue`: indistinguishable when
-// neither stands given the other, otherwise an eligible look-alike is explained by it.
+// Each chosen candidate fitted together with its look-alike from `catalogue` (not chosen): the
+// joint fit decides, not the order of the selection. The one that stands given the other is
+// kept, the look-alike replacing the chosen one when only it stands (held-out confirmed); both
+// are kept when each stands given the other (the look-alike added as in forward selection);
+// when neither stands (or the one that alone stands is not confirmed held-out) the pair is
+// indistinguishable with this recording, reported with the motion that separates them, the
+// chosen one kept in the model (the stronger alone). Each note gives the size and p given the
+// other.
 void CheckLookAlikes(const std::vector<ConfusablePair>& catalogue, const std::vector<bool>& eligible,
-                     const SelectionLevels& levels, const Selection& selection, SelectionFits* fits,
+                     const SelectionLevels& levels, Selection* selection, SelectionFits* fits,
                      std::vector<CandidateOutcome>* outcomes, std::vector<Indistinguishable>* indistinguishable);
 
 // The chosen candidates are found (noted when only given the others).
 void MarkFound(const Selection& selection, const std::vector<bool>& eligible,
                std::vector<CandidateOutcome>* outcomes);
+
+// The decisions near their gate (Borderline): the effects found whose p given the others, and
+// the candidates significant alone but not found whose p, lies within kBorderlineFactor of the
+// family-wise level.
+std::vector<Borderline> BorderlineDecisions(const std::vector<CandidateOutcome>& outcomes, const Selection& selection,
+                                            const SelectionLevels& levels);
+
+// The effects found whose size with the others found is more than two sigma (the larger of the
+// two) from their size alone.
+std::vector<MovedEffect> MovedEffects(const std::vector<FoundEffect>& effects,
+                                      const std::vector<CandidateOutcome>& outcomes);
 
 // The steps above in order, from the single verdicts and the pairs fitted on the baseline.
 Selection SelectEffects(const std::vector<ConfusablePair>& catalogue, const std::vector<PairFit>& pairs,
