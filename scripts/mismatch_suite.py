@@ -18,8 +18,8 @@ Randomized mode (--random N, docs/mismatch-suite.md "Randomized suite"): N recor
 (about a third of them controls), each drawing its sensors at random (lidar field of view
 180-360 deg, 270-1080 beams, 10-40 Hz scans, encoders 50-200 Hz with 1024-16384 ticks, range
 noise 0.5-3 cm, physics step 1-10 ms, commands 10-50 Hz held, ramped or samples of a continuous
-setpoint), its world (the
-warehouse with racks removed and boxes added at random), its start, one concealed effect at
+setpoint), its world (the warehouse with racks removed and boxes added at random), its start,
+one concealed effect at
 1x-20x the drive's detectable size (time offsets 1 ms - 0.5 s), all from the recording's seed;
 then the issue's targets are scored (right name at >= 2x and at 1-2x, controls clean, size
 within 15 % or 2 sigma, judged held-out measure >= 30 % lower).
