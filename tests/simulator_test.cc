@@ -1152,7 +1152,7 @@ TEST(SimulatorTest, RegionCommandsAndPhysicsStepErrors) {
   });
   EXPECT_NE(bad.find("x0 < x1"), std::string::npos) << bad;
   const std::string between = ErrorOf([] { Parse("robot: ../robots/diff_robot.yaml\ncommands: {between: ramps}\n"); });
-  EXPECT_NE(between.find("hold or ramp"), std::string::npos) << between;
+  EXPECT_NE(between.find("hold, ramp or continuous"), std::string::npos) << between;
   const std::string step = ErrorOf([] {
     Parse("robot: ../robots/diff_robot.yaml\nphysics_step: 0.01\nsensors: {wheels: {rate: 200}}\n");
   });
