@@ -17,8 +17,9 @@ matcher's place-dependent error too, not only of the lidar noise on one route.
 Randomized mode (--random N, docs/mismatch-suite.md "Randomized suite"): N recordings per drive
 (about a third of them controls), each drawing its sensors at random (lidar field of view
 180-360 deg, 270-1080 beams, 10-40 Hz scans, encoders 50-200 Hz with 1024-16384 ticks, range
-noise 0.5-3 cm, physics step 1-10 ms, commands 10-50 Hz held or ramped), its world (the
-warehouse with racks removed and boxes added at random), its start, one concealed effect at
+noise 0.5-3 cm, physics step 1-10 ms, commands 10-50 Hz held, ramped or samples of a continuous
+setpoint), its world (the warehouse with racks removed and boxes added at random), its start,
+one concealed effect at
 1x-20x the drive's detectable size (time offsets 1 ms - 0.5 s), all from the recording's seed;
 then the issue's targets are scored (right name at >= 2x and at 1-2x, controls clean, size
 within 15 % or 2 sigma, judged held-out measure >= 30 % lower).
@@ -170,7 +171,7 @@ def random_sensors(rng, drive):
     d = {"enc_rate": round(enc, 1), "ticks": rng.randint(1024, 16384), "scan_rate": round(scan, 1),
          "fov": round(fov, 4), "beams": rng.randint(270, 1080), "range_noise": round(rng.uniform(0.005, 0.03), 4),
          "step": step, "cmd_rate": round(rng.uniform(10, 50), 1),
-         "between": rng.choice(["hold", "ramp"])}
+         "between": rng.choice(["hold", "ramp", "continuous"])}
     d["cmd_rate"] = min(d["cmd_rate"], round(1.0 / d["step"], 1))
     d["enc_rate"] = min(d["enc_rate"], math.floor(10.0 / d["step"]) / 10)  # rounding took 188.68 Hz to 188.7
     return d

@@ -275,7 +275,7 @@ TEST(Diagnose, SteeringRateLimitBelowTheCommandsOwnRamp) {
   SimConfig k = Sim("forklift", 1006);
   k.physics_rate_hz = 1.0 / 0.0073;
   k.command_rate_hz = 47.1;
-  k.command_ramp = true;
+  k.command_between = CommandsBetween::kRamp;
   const DiagnoseReport r = DiagnoseSim(k);
   EXPECT_EQ(Find(r, "steering_rate_limit"), nullptr) << DiagnoseSummaryText(r);
   const CandidateOutcome& o = Outcome(r, "steering_rate_limit");
@@ -294,7 +294,7 @@ TEST(Diagnose, NoDriveLagWhereTheDataDoNotTellHeldFromRampedSetpoints) {
   SimConfig c = Sim("forklift", 1087);
   c.physics_rate_hz = 1.0 / 0.0081;
   c.command_rate_hz = 32.5;
-  c.command_ramp = true;
+  c.command_between = CommandsBetween::kRamp;
   c.wheels.rate_hz = 122.0;
   c.wheels.ticks_per_rev = 1433;
   c.effects.steering_rate_limit_rad_s = 0.092;
@@ -381,7 +381,7 @@ TEST(Diagnose, DriveLagInTheActuationLayer) {
 // 0.087-0.092 s for 0.12 s on such recordings; the diagnosis decides hold or ramp from the data.
 TEST(Diagnose, DriveLagWhenTheSetpointRampsBetweenCommands) {
   SimConfig c = Sim("diff_robot", 21);
-  c.command_ramp = true;
+  c.command_between = CommandsBetween::kRamp;
   c.command_rate_hz = 33.0;
   c.effects.drive_lag_tau_s = 0.12;
   const DiagnoseReport r = DiagnoseSim(c);
@@ -398,6 +398,35 @@ TEST(Diagnose, DriveLagWhenTheSetpointRampsBetweenCommands) {
   EXPECT_EQ(Find(clean, "drive_lag"), nullptr) << DiagnoseSummaryText(clean);
 }
 
+// DRIVE_CMD messages that are samples of a setpoint changing continuously (commands.between:
+// continuous: the controller takes the commander's setpoint every physics step): a model that
+// holds each command read a 0.12 s lag half a command period short (0.092 s at 20 Hz), one that
+// ramps to it a whole period short. Interpolated between the samples, chosen from the data,
+// the lag is within 5 % at 10 and 50 Hz; and the robot file can state the profile.
+TEST(Diagnose, DriveLagWhenTheCommandsSampleAContinuousSetpoint) {
+  for (const double rate : {10.0, 50.0}) {
+    SimConfig c = Sim("diff_robot", 22);
+    c.command_between = CommandsBetween::kContinuous;
+    c.command_rate_hz = rate;
+    c.effects.drive_lag_tau_s = 0.12;
+    const SimLog log(c, "default");
+    const DiagnoseData data = ReadDiagnoseData(c.robot, log.path(), nullptr);
+    const DiagnoseReport r = Diagnose(c.robot, data, DiagnoseOptions{}, log.path());
+    const FoundEffect* e = Find(r, "drive_lag");
+    ASSERT_NE(e, nullptr) << rate << " Hz, named: " << Named(r);
+    EXPECT_NEAR(e->params.at("tau_s").value, 0.12, 0.006) << rate << " Hz\n" << DiagnoseSummaryText(r);
+    if (rate != 10.0) continue;
+    RobotDescription stated = c.robot;
+    stated.commands_between = CommandsBetween::kContinuous;
+    const DiagnoseReport told = Diagnose(stated, data, DiagnoseOptions{}, log.path());
+    ASSERT_NE(Find(told, "drive_lag"), nullptr) << Named(told);
+    EXPECT_NEAR(Find(told, "drive_lag")->params.at("tau_s").value, 0.12, 0.006);
+    EXPECT_NE(std::find_if(told.notes.begin(), told.notes.end(),
+                           [](const std::string& n) { return n.find("stated in the robot file") != std::string::npos; }),
+              told.notes.end());
+  }
+}
+
 // A large steering backlash on a forklift whose controller ramps its setpoint between commands
 // on a 5 ms tick (24.8 Hz commands, so the stamps are 40 or 45 ms apart): the ramp toward each
 // command starts half a tick behind the continuous one and read as a 1.3 ms drive lag, named
@@ -406,7 +435,7 @@ TEST(Diagnose, DriveLagWhenTheSetpointRampsBetweenCommands) {
 TEST(Diagnose, NoDriveLagBesideABacklashOnARampingTick) {
   SimConfig c = Sim("forklift", 12);
   c.physics_rate_hz = 200.0;
-  c.command_ramp = true;
+  c.command_between = CommandsBetween::kRamp;
   c.command_rate_hz = 24.8;
   c.effects.steering_backlash_width_rad = 0.0034;
   const DiagnoseReport r = DiagnoseSim(c);

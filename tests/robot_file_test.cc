@@ -5,6 +5,7 @@
 #include <cstdio>
 #include <fstream>
 #include <string>
+#include <utility>
 
 #include "calib/core/errors.h"
 #include "calib/core/robot.h"
@@ -99,6 +100,22 @@ TEST(RobotFileTest, AcceptsCalibratedOutputKeys) {
       kOrigin);
   EXPECT_DOUBLE_EQ(robot.param("wheelbase"), 1.42);
   ExpectError(std::string(kTricycle) + "std: 0.1\n", 10, "std", "expected a map");
+}
+
+// What the controller does between DRIVE_CMD messages: absent, the diagnosis decides from the
+// data; stated, it is taken; any other word is refused at its line.
+TEST(RobotFileTest, CommandsBetween) {
+  EXPECT_FALSE(ParseRobot(kTricycle, kOrigin).commands_between.has_value());
+  for (const auto& [word, value] : {std::pair{"hold", CommandsBetween::kHold}, std::pair{"ramp", CommandsBetween::kRamp},
+                                    std::pair{"continuous", CommandsBetween::kContinuous}}) {
+    const RobotDescription robot = ParseRobot(std::string(kTricycle) + "commands: {between: " + word + "}\n", kOrigin);
+    ASSERT_TRUE(robot.commands_between.has_value()) << word;
+    EXPECT_EQ(*robot.commands_between, value) << word;
+    EXPECT_STREQ(CommandsBetweenName(value), word);
+  }
+  ExpectError(std::string(kTricycle) + "commands: {between: smooth}\n", 10, "commands.between",
+              "expected hold, ramp or continuous, got 'smooth'");
+  ExpectError(std::string(kTricycle) + "commands: {rate: 20}\n", 10, "commands.rate", "unknown key");
 }
 
 TEST(RobotFileTest, LoadsExampleFiles) {

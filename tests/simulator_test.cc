@@ -18,6 +18,7 @@
 
 #include <Eigen/Geometry>
 
+#include "agvcal/drive_command_t.hpp"
 #include "agvcal/imu_t.hpp"
 #include "agvcal/laser_scan_t.hpp"
 #include "agvcal/point_cloud_t.hpp"
@@ -1151,7 +1152,7 @@ TEST(SimulatorTest, RegionCommandsAndPhysicsStepErrors) {
   });
   EXPECT_NE(bad.find("x0 < x1"), std::string::npos) << bad;
   const std::string between = ErrorOf([] { Parse("robot: ../robots/diff_robot.yaml\ncommands: {between: ramps}\n"); });
-  EXPECT_NE(between.find("hold or ramp"), std::string::npos) << between;
+  EXPECT_NE(between.find("hold, ramp or continuous"), std::string::npos) << between;
   const std::string step = ErrorOf([] {
     Parse("robot: ../robots/diff_robot.yaml\nphysics_step: 0.01\nsensors: {wheels: {rate: 200}}\n");
   });
@@ -1171,6 +1172,77 @@ TEST(SimulatorTest, RelativeWorldFileResolvesAgainstTheConfigDirectory) {
   ASSERT_FALSE(scans.empty());
   // Beam 360 looks along +x from the lidar at (0.2, 0): the wall at x = 5.
   EXPECT_NEAR(scans[0].ranges[360], 4.8, 0.05);
+}
+
+}  // namespace
+}  // namespace calib
+
+namespace calib {
+namespace {
+
+// Each wheel sample's count step less the mean of its neighbours, RMS in ticks, over a wheel
+// moving steadily (the unevenness of the counts).
+double CountUnevenness(const MemorySink& sink, int ticks_per_rev) {
+  std::vector<double> ticks;
+  for (const auto& m : Messages<agvcal::wheel_state_t>(sink, kWheelsChannel))
+    ticks.push_back(m.position[0] / (2 * M_PI / ticks_per_rev));
+  double ss = 0;
+  int count = 0;
+  for (std::size_t i = 1; i + 2 < ticks.size(); ++i) {
+    const double before = ticks[i] - ticks[i - 1], step = ticks[i + 1] - ticks[i], after = ticks[i + 2] - ticks[i + 1];
+    if (before * after <= 0 || std::abs(before) + std::abs(after) < 4) continue;
+    ss += std::pow(step - 0.5 * (before + after), 2), ++count;
+  }
+  EXPECT_GT(count, 100);
+  return std::sqrt(ss / std::max(count, 1));
+}
+
+// wheels.count_jitter: counts read off their stamps step unevenly (a plain quantiser's steps
+// differ from their neighbours' mean by well under a tick); 0 changes nothing.
+TEST(SimulatorTest, CountJitterMakesTheCountsStepUnevenly) {
+  OfflineRunOptions options;
+  options.trajectory = "demo";
+  const std::string base = "robot: ../robots/forklift.yaml\nsensors:\n  wheels: {rate: 20, ticks_per_rev: 1600";
+  MemorySink plain, uneven;
+  RunOffline(Parse(base + "}\n"), options, &plain);
+  RunOffline(Parse(base + ", count_jitter: 0.3}\n"), options, &uneven);
+  EXPECT_LT(CountUnevenness(plain, 1600), 0.75);
+  EXPECT_GT(CountUnevenness(uneven, 1600), 3.0);
+  EXPECT_THROW(Parse(base + ", count_jitter: 0.6}\n"), InputError);
+}
+
+// commands.between continuous: the controller follows the commander's setpoint every physics
+// step, so between two DRIVE_CMD messages the wheel's setpoint moves (held, it would not); the
+// messages keep their rate.
+TEST(SimulatorTest, ContinuousSetpointIsSampledByTheCommands) {
+  OfflineRunOptions options;
+  options.trajectory = "demo";
+  const std::string base = "robot: ../robots/diff_robot.yaml\ncommands: {rate: 10, between: ";
+  MemorySink held, continuous;
+  RunOffline(Parse(base + "hold}\n"), options, &held);
+  RunOffline(Parse(base + "continuous}\n"), options, &continuous);
+  EXPECT_EQ(Parse(base + "continuous}\n").command_between, CommandsBetween::kContinuous);
+  EXPECT_THROW(Parse(base + "smooth}\n"), InputError);
+  const auto held_cmds = Messages<agvcal::drive_command_t>(held, kDriveCmdChannel);
+  const auto cont_cmds = Messages<agvcal::drive_command_t>(continuous, kDriveCmdChannel);
+  EXPECT_NEAR(double(cont_cmds.size()), double(held_cmds.size()), 0.01 * held_cmds.size());
+  // Wheel speeds (no lag, no noise: the setpoint itself) that differ within one command period
+  // while the commanded speed changes.
+  auto changes_between_commands = [](const MemorySink& sink) {
+    const auto wheels = Messages<agvcal::wheel_state_t>(sink, kWheelsChannel);
+    const auto cmds = Messages<agvcal::drive_command_t>(sink, kDriveCmdChannel);
+    int changes = 0;
+    std::size_t c = 0;
+    for (std::size_t i = 1; i < wheels.size(); ++i) {
+      // A sample shows the last command stamped before it.
+      while (c < cmds.size() && cmds[c].utime < wheels[i - 1].utime) ++c;
+      const bool same_command = c >= cmds.size() || cmds[c].utime >= wheels[i].utime;
+      if (same_command && std::abs(wheels[i].velocity[0] - wheels[i - 1].velocity[0]) > 1e-6) ++changes;
+    }
+    return changes;
+  };
+  EXPECT_GT(changes_between_commands(continuous), 100);
+  EXPECT_LT(changes_between_commands(held), changes_between_commands(continuous) / 10);
 }
 
 }  // namespace

@@ -236,7 +236,7 @@ RobotDescription ParseDocument(const Reporter& reporter, const YAML::Node& root,
                                const std::string& origin) {
   static const std::vector<std::string> kTopKeys{"name",  "drive", "wheels", "params",
                                                  "lidar2d", "lidar3d", "imu", "pose",
-                                                 "limits", "std",   "source"};
+                                                 "limits", "commands", "std", "source"};
   const int root_line = std::max(1, LineOf(root.Mark()));
   if (!root.IsMap()) {
     reporter.Fail(root_line, "",
@@ -270,6 +270,14 @@ RobotDescription ParseDocument(const Reporter& reporter, const YAML::Node& root,
   if (const auto f = top.Find("imu")) robot.imu = ReadImu(reporter, *f);
   if (const auto f = top.Find("pose")) robot.pose = ReadMount2d(reporter, *f, "POSE");
   if (const auto f = top.Find("limits")) robot.limits = ReadLimits(reporter, *f);
+  if (const auto f = top.Find("commands")) {
+    const CheckedMap map(reporter, *f, {"between"});
+    if (const auto v = map.Find("between")) {
+      const std::string word = ReadString(reporter, *v);
+      robot.commands_between = CommandsBetweenNamed(word);
+      if (!robot.commands_between) reporter.Fail(*v, "expected hold, ramp or continuous, got '" + word + "'");
+    }
+  }
   // Written by `agvcal solve`; carried for the user, not read back.
   if (const auto f = top.Find("std")) {
     if (!f->value.IsMap()) reporter.Fail(*f, "expected a map of standard deviations, got " +
@@ -282,6 +290,21 @@ RobotDescription ParseDocument(const Reporter& reporter, const YAML::Node& root,
 }
 
 }  // namespace
+
+const char* CommandsBetweenName(CommandsBetween between) {
+  switch (between) {
+    case CommandsBetween::kRamp: return "ramp";
+    case CommandsBetween::kContinuous: return "continuous";
+    case CommandsBetween::kHold: break;
+  }
+  return "hold";
+}
+
+std::optional<CommandsBetween> CommandsBetweenNamed(const std::string& word) {
+  for (CommandsBetween b : {CommandsBetween::kHold, CommandsBetween::kRamp, CommandsBetween::kContinuous})
+    if (word == CommandsBetweenName(b)) return b;
+  return std::nullopt;
+}
 
 RobotDescription ParseRobot(const std::string& yaml_text, const std::string& origin) {
   const Reporter reporter(origin);

@@ -29,7 +29,7 @@ struct Series {
   std::vector<std::array<double, 2>> speed_cmd, steer_cmd;  // setpoint held over [t_i, t_i+1]
   std::vector<bool> heldout;
   std::vector<int> chunk;                      // one-second chunk index
-  bool ramp = false;  // the setpoints ramp between commands (Setpoints) rather than hold
+  CommandsBetween between = CommandsBetween::kHold;  // the setpoints' profile (Setpoints)
 };
 
 // Minimises f over [lo, hi]: a grid first, then golden section between the grid's best point's
@@ -121,13 +121,16 @@ double CommandPeriod(const std::vector<DriveCommand>& commands, double* jitter =
 }
 
 // The setpoint in force at robot time `t` (us) after each command, per wheel: held until the
-// next command (`ramp` false), or ramped linearly from the setpoint in force when the command
-// came to the new one over `period` s, then held. A command lapses after its timeout (speed 0,
-// steering held).
+// next command (kHold); ramped linearly from the setpoint in force when the command came to the
+// new one over the command period, then held (kRamp); or interpolated linearly from each command
+// to the next (kContinuous: the commands are samples of a continuously changing setpoint; across
+// a pause longer than a period and a half the setpoint is held). A command lapses after its
+// timeout (speed 0, steering held).
 class Setpoints {
  public:
-  Setpoints(const RobotDescription& robot, const Track& tr, const std::vector<DriveCommand>& commands, bool ramp)
-      : commands_(commands), ramp_(ramp), period_us_(CommandPeriod(commands) * 1e6), nw_(tr.wheels) {
+  Setpoints(const RobotDescription& robot, const Track& tr, const std::vector<DriveCommand>& commands,
+            CommandsBetween between)
+      : commands_(commands), between_(between), period_us_(CommandPeriod(commands) * 1e6), nw_(tr.wheels) {
     first_steer_ = {tr.steer(0, 0), tr.steer(0, 1)};
     const auto model = MakeDriveModel(robot);
     std::array<double, 2> speed{0, 0}, steer{tr.steer(0, 0), tr.steer(0, 1)};
@@ -159,14 +162,21 @@ class Setpoints {
                           commands_.begin();
     if (c == 0) return {{0, 0}, {first_steer_[0], first_steer_[1]}};
     const DriveCommand& cmd = commands_[c - 1];
-    const Point& to = to_[c - 1];
-    if (t - cmd.utime > cmd.timeout_s * 1e6) return {{0, 0}, to.steer};
-    const double f = ramp_ ? std::min(1.0, (t - cmd.utime) / period_us_) : 1.0;
-    if (f >= 1.0) return to;
+    const Point* from = &from_[c - 1];
+    const Point* to = &to_[c - 1];
+    if (t - cmd.utime > cmd.timeout_s * 1e6) return {{0, 0}, to->steer};
+    double f = 1.0;
+    if (between_ == CommandsBetween::kRamp) {
+      f = std::min(1.0, (t - cmd.utime) / period_us_);
+    } else if (between_ == CommandsBetween::kContinuous && c < end) {
+      const double gap = double(commands_[c].utime - cmd.utime);
+      if (gap <= 1.5 * period_us_) from = to, to = &to_[c], f = (t - cmd.utime) / gap;
+    }
+    if (f >= 1.0) return *to;
     Point p;
     for (int w = 0; w < 2; ++w) {
-      p.speed[w] = from_[c - 1].speed[w] + f * (to.speed[w] - from_[c - 1].speed[w]);
-      p.steer[w] = from_[c - 1].steer[w] + f * (to.steer[w] - from_[c - 1].steer[w]);
+      p.speed[w] = from->speed[w] + f * (to->speed[w] - from->speed[w]);
+      p.steer[w] = from->steer[w] + f * (to->steer[w] - from->steer[w]);
     }
     return p;
   }
@@ -177,7 +187,7 @@ class Setpoints {
  private:
   std::array<double, 2> first_steer_{0, 0};
   const std::vector<DriveCommand>& commands_;
-  bool ramp_;
+  CommandsBetween between_;
   double period_us_;
   int nw_;
   std::vector<Point> from_, to_;
@@ -186,11 +196,11 @@ class Setpoints {
 // The setpoints over the wheel samples (each its mean over [t_i, t_i+1]), and the fit /
 // held-out blocks.
 Series CommandSeries(const RobotDescription& robot, const Track& tr, const std::vector<DriveCommand>& commands,
-                     double block_s, bool ramp) {
+                     double block_s, CommandsBetween between) {
   const std::size_t n = tr.size();
-  const Setpoints setpoints(robot, tr, commands, ramp);
+  const Setpoints setpoints(robot, tr, commands, between);
   Series s;
-  s.ramp = ramp;
+  s.between = between;
   s.t.resize(n);
   s.utime = tr.utimes();
   s.speed_cmd.assign(n, {0, 0});
@@ -284,7 +294,7 @@ double CommandedSteeringRate(const RobotDescription& robot, const Track& tr, con
   double jitter = 0;
   const double period = CommandPeriod(commands, &jitter);
   *share = period > 0 ? jitter / period : 0.0;
-  const Setpoints setpoints(robot, tr, commands, false);
+  const Setpoints setpoints(robot, tr, commands, CommandsBetween::kHold);
   std::vector<std::pair<double, double>> ramps;  // rate, travel
   std::vector<std::pair<double, double>> run;    // this ramp's steps: change, gap
   auto close_run = [&] {
@@ -553,6 +563,25 @@ FoundEffect DescribeLayer(const Layer& L, const Series& s, const LayerTest& test
   return fe;
 }
 
+// "held", "ramped", "interpolated": how the diagnosis models the setpoint between commands.
+const char* ProfileWord(CommandsBetween between) {
+  switch (between) {
+    case CommandsBetween::kRamp: return "ramped";
+    case CommandsBetween::kContinuous: return "interpolated";
+    case CommandsBetween::kHold: break;
+  }
+  return "held";
+}
+
+const char* ProfileSentence(CommandsBetween between) {
+  switch (between) {
+    case CommandsBetween::kRamp: return "ramps between DRIVE_CMD messages";
+    case CommandsBetween::kContinuous: return "changes continuously, the DRIVE_CMD messages its samples (interpolated)";
+    case CommandsBetween::kHold: break;
+  }
+  return "is held from one DRIVE_CMD to the next";
+}
+
 }  // namespace
 
 int ActuationCandidates(const RobotDescription& robot, const DiagnoseData& data) {
@@ -568,17 +597,23 @@ void DiagnoseActuation(const RobotDescription& robot, const DiagnoseData& data,
     return;
   }
   const Track tr = MakeTrack(robot, data.wheels);
-  // Whether the controller holds each setpoint until the next command or ramps between
-  // commands, from the data: the profile under which the drive layer, at its best lag, fits the
-  // fit blocks better (Gaussian log-likelihood; both profiles have the same parameter). Held-setpoint models fitted to ramped setpoints bias the lag low by about
-  // half a command period, and the other way round high.
-  const std::array<Series, 2> profiles{CommandSeries(robot, tr, data.commands, options.block_s, false),
-                                       CommandSeries(robot, tr, data.commands, options.block_s, true)};
-  std::array<std::vector<Layer>, 2> layer_sets;
-  std::array<double, 2> score{0, 0};
+  // What the controller does between commands: stated in the robot file, or from the data: the
+  // profile under which the drive layer, at its best lag, fits the fit blocks best (Gaussian
+  // log-likelihood; every profile has the same parameter). A model that holds each command
+  // fitted to ramped setpoints biases the lag low by about half a command period, fitted to
+  // samples of a continuous setpoint too; a ramp is a period behind the continuous setpoint.
+  std::vector<CommandsBetween> candidates{CommandsBetween::kHold, CommandsBetween::kRamp,
+                                          CommandsBetween::kContinuous};
+  if (robot.commands_between) candidates = {*robot.commands_between};
+  const std::size_t np = candidates.size();
+  std::vector<Series> profiles;
+  std::vector<std::vector<Layer>> layer_sets(np);
+  std::vector<double> score(np, 0.0);
+  for (CommandsBetween between : candidates)
+    profiles.push_back(CommandSeries(robot, tr, data.commands, options.block_s, between));
   std::ostringstream per_layer;
   per_layer.precision(8);
-  for (int k = 0; k < 2; ++k) {
+  for (std::size_t k = 0; k < np; ++k) {
     layer_sets[k].push_back(DriveLagLayer(profiles[k], tr, data.commands));
     if (m > 1) layer_sets[k].push_back(SteeringRateLimitLayer(robot, profiles[k], tr, data.commands));
     for (const Layer& L : layer_sets[k]) {
@@ -587,41 +622,51 @@ void DiagnoseActuation(const RobotDescription& robot, const DiagnoseData& data,
       // of when the controller applies a setpoint (a simulator's or controller's tick) hardly
       // matters; the steering angle is read at instants and such a shift can outweigh the profile.
       if (L.name == "drive_lag") score[k] += layer_score;
-      per_layer << (k ? " ramped " : " held ") << L.name << " " << layer_score << ";";
+      per_layer << " " << ProfileWord(candidates[k]) << " " << L.name << " " << layer_score << ";";
     }
   }
-  const int chosen = score[1] < score[0] ? 1 : 0;
+  const std::size_t chosen = std::min_element(score.begin(), score.end()) - score.begin();
   const Series& s = profiles[chosen];
   const std::vector<Layer>& layers = layer_sets[chosen];
   std::vector<LayerTest> tests;
   for (const Layer& L : layers) tests.push_back(TestLayer(L, s));
-  // Whether the data tell the profiles apart: the gap of the drive layer's log-likelihoods, its
-  // samples counted once per correlation time, at the level of the actuation tests. Where the
-  // controller's tick is coarse against the command period (a few ticks a command) a held
-  // setpoint behind a lag of half a command period fits a ramp about as well, and a drive lag
-  // found under the chosen profile alone is that lead.
-  const double gap = std::abs(score[0] - score[1]) / std::max(tests[0].tau_int, 1.0);
-  const bool told_apart = gap > ChiSquareUpperQuantile(alpha_share / m, 1);
-  per_layer << " profiles told apart: " << (told_apart ? "yes" : "no") << ", gap " << gap
-            << " per correlation time of " << tests[0].tau_int << " samples;";
-  report->notes.push_back(std::string("actuation: the setpoint ") +
-                          (chosen ? "ramps between DRIVE_CMD messages" : "is held from one DRIVE_CMD to the next") +
-                          " (chosen by the fit: log SSE " + std::to_string(score[0]) + " held, " +
-                          std::to_string(score[1]) + " ramped;" + per_layer.str() + ")");
+  // Which other profiles the data do not tell from the chosen one: the gap of the drive layer's
+  // log-likelihoods, its samples counted once per correlation time, at the level of the
+  // actuation tests. Where the controller's tick is coarse against the command period (a few
+  // ticks a command) a held setpoint behind a lag of half a command period fits a ramp about as
+  // well, and a drive lag found under the chosen profile alone is that lead.
+  std::vector<std::size_t> not_told;
+  for (std::size_t k = 0; k < np; ++k) {
+    if (k == chosen) continue;
+    const double gap = std::abs(score[k] - score[chosen]) / std::max(tests[0].tau_int, 1.0);
+    const bool told_apart = gap > ChiSquareUpperQuantile(alpha_share / m, 1);
+    if (!told_apart) not_told.push_back(k);
+    per_layer << " " << ProfileWord(candidates[k]) << " told apart: " << (told_apart ? "yes" : "no") << ", gap "
+              << gap << " per correlation time of " << tests[0].tau_int << " samples;";
+  }
+  std::ostringstream note;
+  note << "actuation: the setpoint " << ProfileSentence(candidates[chosen]);
+  if (robot.commands_between)
+    note << " (stated in the robot file: commands.between " << CommandsBetweenName(*robot.commands_between) << ";"
+         << per_layer.str() << ")";
+  else
+    note << " (chosen by the fit, log SSE:" << per_layer.str() << ")";
+  report->notes.push_back(note.str());
   for (std::size_t l = 0; l < layers.size(); ++l) {
     const Layer& L = layers[l];
     const LayerTest& test = tests[l];
     CandidateOutcome o;
     bool significant = JudgeLayer(L, test, m, options.alpha, alpha_share, &o);
-    if (significant && !told_apart) {
+    for (std::size_t k : not_told) {
+      if (!significant) break;
       CandidateOutcome other;
-      const Layer& L_other = layer_sets[1 - chosen][l];
-      if (!JudgeLayer(L_other, TestLayer(L_other, profiles[1 - chosen]), m, options.alpha, alpha_share, &other)) {
+      const Layer& L_other = layer_sets[k][l];
+      if (!JudgeLayer(L_other, TestLayer(L_other, profiles[k]), m, options.alpha, alpha_share, &other)) {
         significant = false;
         o.status = CandidateStatus::kNotSignificant;
-        o.note = std::string("found only with the setpoint ") + (chosen ? "ramped" : "held") +
-                 ", which the data do not tell from " + (chosen ? "held" : "ramped") +
-                 " setpoints (the other profile's fit: " + (other.note.empty() ? "not significant" : other.note) + ")";
+        o.note = std::string("found only with the setpoint ") + ProfileWord(candidates[chosen]) +
+                 ", which the data do not tell from " + ProfileWord(candidates[k]) +
+                 " setpoints (that profile's fit: " + (other.note.empty() ? "not significant" : other.note) + ")";
       }
     }
     report->candidates.push_back(o);

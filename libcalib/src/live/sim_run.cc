@@ -1,5 +1,6 @@
 #include "calib/live/sim_run.h"
 
+#include <algorithm>
 #include <cmath>
 
 #include "calib/io/messages.h"
@@ -19,11 +20,22 @@ OfflineRunSummary RunOffline(const SimConfig& config, const OfflineRunOptions& o
   OfflineRunSummary summary;
   int64_t finished_at = -1;
   int64_t next_progress = start;
+  // commands.between continuous: the controller takes the commander's setpoint anew every
+  // physics step, and the DRIVE_CMD messages are its samples, each the setpoint at its stamp.
+  const bool continuous = config.command_between == CommandsBetween::kContinuous;
+  const int64_t physics_step = std::max<int64_t>(1, std::llround(1e6 / config.physics_rate_hz));
   for (int64_t t = start; t < cap; t += period) {
+    if (continuous) {
+      while (t > start && sim.utime() + physics_step < t) {
+        sim.AdvanceTo(sim.utime() + physics_step, sink);
+        sim.ApplyCommand(commander.Step(sim.utime()));
+      }
+    }
     sim.AdvanceTo(t, sink);
     if (finished_at >= 0 && t - finished_at >= std::llround(options.tail_s * 1e6)) break;
-    // The commander's clock is the newest wheel state, as in the live process.
-    DriveCommand command = commander.Step(sim.last_wheels_utime());
+    // The commander's clock is the newest wheel state, as in the live process (continuous: the
+    // setpoint's own time).
+    DriveCommand command = commander.Step(continuous ? sim.utime() : sim.last_wheels_utime());
     // Stamped when the robot takes it: the simulator's time after the physics step that
     // reached t (later than the newest wheel state when the command and encoder rates or
     // the physics step do not line up; a stamp before that would read as a drive lag).

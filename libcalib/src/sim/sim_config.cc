@@ -101,7 +101,7 @@ void ReadSensors(const Reporter& r, const Field& field, SimConfig* cfg) {
   const CheckedMap top(r, field, {"wheels", "lidar2d", "imu", "lidar3d", "pose", "ground_truth"});
   if (const auto f = top.Find("wheels")) {
     const CheckedMap m(r, *f, {"rate", "ticks_per_rev", "tick_noise", "steer_resolution",
-                               "steer_noise", "velocity_noise"});
+                               "steer_noise", "velocity_noise", "count_jitter"});
     WheelSensorConfig& w = cfg->wheels;
     w.rate_hz = RateOr(r, m, w.rate_hz, cfg->physics_rate_hz);
     if (const auto t = m.Find("ticks_per_rev")) w.ticks_per_rev = ReadCount(r, *t);
@@ -109,6 +109,8 @@ void ReadSensors(const Reporter& r, const Field& field, SimConfig* cfg) {
     w.steer_resolution_rad = NonNegativeOr(r, m, "steer_resolution", w.steer_resolution_rad);
     w.steer_noise_rad = NonNegativeOr(r, m, "steer_noise", w.steer_noise_rad);
     w.velocity_noise = NonNegativeOr(r, m, "velocity_noise", w.velocity_noise);
+    w.count_jitter = NonNegativeOr(r, m, "count_jitter", w.count_jitter);
+    if (w.count_jitter > 0.5) r.Fail(*m.Find("count_jitter"), "must be at most 0.5 (half a sample period)");
   }
   if (const auto f = top.Find("lidar2d")) {
     const CheckedMap m(r, *f, {"rate", "beams", "fov", "range_min", "range_max", "range_noise",
@@ -344,8 +346,9 @@ SimConfig ParseSimConfig(const std::string& yaml_text, const std::string& origin
     }
     if (const auto v = m.Find("between")) {
       const std::string between = ReadString(r, *v);
-      if (between != "hold" && between != "ramp") r.Fail(*v, "expected hold or ramp, got '" + between + "'");
-      cfg.command_ramp = between == "ramp";
+      const auto named = CommandsBetweenNamed(between);
+      if (!named) r.Fail(*v, "expected hold, ramp or continuous, got '" + between + "'");
+      cfg.command_between = *named;
     }
   }
   if (const auto f = top.Find("truth")) ReadTruth(r, *f, &cfg);

@@ -135,7 +135,7 @@ void Simulator::StepPhysics(double dt) {
   // commands.between ramp: from the setpoints in force when the command came to the new ones
   // over one command period, at the step's middle (the mean of the linear ramp over the step: at
   // its end the setpoint would lead the ramp by half a step, which reads as a timing error).
-  const double ramp = !config_.command_ramp || !s.have_command
+  const double ramp = config_.command_between != CommandsBetween::kRamp || !s.have_command
                           ? 1.0
                           : std::min(1.0, (utime_ + dt * 0.5e6 - s.command_received) * 1e-6 * config_.command_rate_hz);
   for (size_t i = 0; i < n; ++i) {
@@ -175,7 +175,12 @@ void Simulator::PublishWheels(MessageSink* sink) {
   for (size_t i = 0; i < roles.size(); ++i) {
     const WheelState& w = s.wheels[i];
     msg.name.push_back(cfg.robot.wheel_name(roles[i]));
-    const double noisy = w.phi / tick + cfg.wheels.tick_noise * s.normal(s.rng_wheels);
+    // The count read off the stamp: the angle then, to first order in the wheel's speed.
+    const double read_early =
+        cfg.wheels.count_jitter > 0
+            ? cfg.wheels.count_jitter * (2 * s.uniform(s.rng_wheels) - 1) / cfg.wheels.rate_hz
+            : 0.0;
+    const double noisy = (w.phi + w.omega * read_early) / tick + cfg.wheels.tick_noise * s.normal(s.rng_wheels);
     msg.position.push_back(std::floor(noisy) * tick);
     msg.velocity.push_back(w.omega + cfg.wheels.velocity_noise * s.normal(s.rng_wheels));
     double steer = 0.0;

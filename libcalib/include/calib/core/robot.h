@@ -88,6 +88,16 @@ struct Limits {
   double max_steer_rate = 1.0;  // rad/s
 };
 
+// What the robot's controller does with its setpoint between DRIVE_CMD messages: holds each
+// command until the next, ramps from the setpoint in force to the new command over one command
+// period, or follows a setpoint that changes continuously, of which the messages are samples.
+enum class CommandsBetween { kHold, kRamp, kContinuous };
+
+// "hold", "ramp", "continuous" (the robot file's and the simulation config's words).
+const char* CommandsBetweenName(CommandsBetween between);
+// The value named `word`, or none.
+std::optional<CommandsBetween> CommandsBetweenNamed(const std::string& word);
+
 struct RobotDescription {
   std::string name;
   DriveType drive = DriveType::kDifferential;
@@ -98,6 +108,7 @@ struct RobotDescription {
   std::optional<ImuMount> imu;
   std::optional<Mount2d> pose;                // external pose source
   Limits limits;
+  std::optional<CommandsBetween> commands_between;  // commands.between; absent: chosen from the data
   std::string source_file;                    // where it was read from (for messages)
 
   double param(const std::string& key) const;  // throws std::out_of_range naming the key

@@ -22,16 +22,22 @@
 //                                     # sensor samples at most once per step, at the step's end
 //   commands: {rate: 20, between: hold}
 //       # DRIVE_CMD rate of the offline run (agvcal simulate), Hz; what the robot's controller
-//       # does between commands: `hold` each setpoint until the next, or `ramp` from the
+//       # does between commands: `hold` each setpoint until the next, `ramp` from the
 //       # setpoint in force to the new one over one command period (1 / rate), then hold
-//       # (each physics step holds the ramp's value at the step's middle)
+//       # (each physics step holds the ramp's value at the step's middle), or `continuous`:
+//       # the controller follows the commander's setpoint, taken anew every physics step, and
+//       # the DRIVE_CMD messages are its samples at the rate (offline runs; a simulator fed
+//       # only the messages, as the live one, holds them)
 //   truth:                            # true values; anything omitted = nominal
 //     params: {drive_radius: 0.1153, ...}
 //     lidar2d: {x:, y:, yaw:}   lidar3d: {x:, y:, z:, roll:, pitch:, yaw:}
 //     imu: {yaw:}               pose: {x:, y:, yaw:}
 //   sensors:
 //     wheels: {rate: 100, ticks_per_rev: 4096, tick_noise: 0.0, steer_resolution: 0.0002,
-//              steer_noise: 0.0002, velocity_noise: 0.0}
+//              steer_noise: 0.0002, velocity_noise: 0.0, count_jitter: 0.0}
+//       # count_jitter (0 .. 0.5): each sample's encoder count is read at a time off its stamp
+//       # by up to this share of the sample period (uniform), so the counts per sample step
+//       # unevenly (13 7 6 14 7 ... where 10 are due) as on encoders read by an unsynchronised bus
 //     lidar2d: {rate: 20, beams: 720, fov: 6.283185, range_min: 0.05, range_max: 30,
 //               range_noise: 0.01, dropout: 0.0}
 //     imu: {rate: 200, gyro_noise_density: 8.7e-5, gyro_bias: 0.0017, accel_noise_density: 0.002,
@@ -103,6 +109,7 @@ struct WheelSensorConfig {
   double steer_resolution_rad = 0.0002;
   double steer_noise_rad = 0.0002;
   double velocity_noise = 0.0;       // rad/s on the reported wheel speed
+  double count_jitter = 0.0;         // each count read up to this share of a period off its stamp
 };
 
 struct Lidar2dSensorConfig {
@@ -160,7 +167,7 @@ struct SimConfig {
   uint64_t seed = 1;
   double physics_rate_hz = 1000.0;             // 1 / physics_step
   double command_rate_hz = 20.0;               // commands.rate (offline runs)
-  bool command_ramp = false;                   // commands.between: ramp (true) or hold
+  CommandsBetween command_between = CommandsBetween::kHold;  // commands.between
   WheelSensorConfig wheels;
   Lidar2dSensorConfig lidar2d;
   ImuSensorConfig imu;
