@@ -12,6 +12,7 @@
 #include "agvcal/point_cloud_t.hpp"
 #include "agvcal/pose2d_t.hpp"
 #include "agvcal/wheel_state_t.hpp"
+#include "calib/core/physics_terms.h"
 #include "calib/io/messages.h"
 #include "sim/lidar3d_model.h"
 #include "sim/wheel_physics.h"
@@ -156,11 +157,39 @@ void Simulator::StepPhysics(double dt) {
 
   // Body motion from the wheels' true motion, with the true parameters.
   Twist2 twist = s.true_model->Forward({effective_omega, true_raw});
+  if (!config_.terms.empty()) twist = WithTerms(effective_omega, true_raw, twist);
   if (fx.lateral_slip_gain != 0 && Inside(fx.lateral_slip_region, pose_)) twist.vy += -fx.lateral_slip_gain * twist.vx * twist.omega;
   pose_ = Compose(pose_, ExpTwist(twist, dt));
   s.omega_body = twist.omega;
   const double c = std::cos(pose_.theta), sn = std::sin(pose_.theta);
   s.velocity_world = Eigen::Vector2d(c * twist.vx - sn * twist.vy, sn * twist.vx + c * twist.vy);
+}
+
+// The terms of the config (physics_terms.h) through their channels, at the kinematic motion
+// `kinematic` of the wheels' effective speeds and true steering angles.
+Twist2 Simulator::WithTerms(std::vector<double> effective_omega, std::vector<double> true_raw,
+                            const Twist2& kinematic) const {
+  const State& s = *state_;
+  const auto& roles = WheelRoles(config_.robot.drive);
+  TermMotion motion;
+  motion.speed = kinematic.vx;
+  motion.turn_rate = kinematic.omega;
+  motion.time = (utime_ - config_.start_utime) * 1e-6;
+  for (size_t i = 0; i < roles.size(); ++i) {
+    if (!s.steered[i]) continue;
+    const std::string offset_name = SteerOffsetParamName(roles[i]);
+    motion.steer = true_raw[i] - (offset_name.empty() ? 0.0 : config_.true_params.at(offset_name));
+    break;
+  }
+  const double radius = ChannelChange(config_.terms, TermChannel::kRadius, motion);
+  const double steer = ChannelChange(config_.terms, TermChannel::kSteer, motion);
+  for (size_t i = 0; i < roles.size(); ++i) {
+    effective_omega[i] *= 1.0 + radius;
+    if (s.steered[i]) true_raw[i] += steer;
+  }
+  Twist2 twist = s.true_model->Forward({effective_omega, true_raw});
+  twist.omega += ChannelChange(config_.terms, TermChannel::kYawRate, motion);
+  return twist;
 }
 
 // WHEELS: encoder ticks (with tick noise), wheel speeds and steering readings.
@@ -232,7 +261,10 @@ void Simulator::PublishScan(MessageSink* sink) {
   if (cfg.effects.scan_distortion_period_s)
     dt_beam = *cfg.effects.scan_distortion_period_s / L.beams;
   agvcal::laser_scan_t msg{};
-  msg.utime = start + std::llround(cfg.effects.time_offset_s.value_or(0.0) * 1e6);
+  TermMotion at_start;
+  at_start.time = (start - cfg.start_utime) * 1e-6;
+  const double offset_s = cfg.effects.time_offset_s.value_or(0.0) + ChannelChange(cfg.terms, TermChannel::kTiming, at_start);
+  msg.utime = start + std::llround(offset_s * 1e6);
   msg.angle_min = static_cast<float>(-L.fov_rad / 2.0);
   msg.angle_increment = static_cast<float>(increment);
   msg.time_increment = cfg.effects.scan_distortion_period_s ? 0.0f : static_cast<float>(dt_beam);

@@ -55,6 +55,9 @@
 //       # point is inside this box of the world frame, m (a wet patch); absent: everywhere
 //     wheel_eccentricity: {amplitude: 0.003, phase: 0.4, wheel: left}
 //     ...
+//   terms:                            # physics outside effects.md (core/physics_terms.h)
+//     - {channel: yaw_rate, regressor: "turn_rate*|turn_rate|", coefficient: -0.3}
+//       # channel yaw_rate, radius, steer or timing; regressor and units: docs/effects.md
 // A sensor with rate 0 is off. lidar2d is on when the robot file has a
 // lidar2d, imu when it has an imu, pose when it has a pose source; lidar3d is
 // off unless given a rate.
@@ -70,6 +73,7 @@
 
 #include "calib/core/drive_command.h"
 #include "calib/core/kinematics.h"
+#include "calib/core/physics_terms.h"
 #include "calib/core/robot.h"
 #include "calib/core/se2.h"
 #include "calib/io/recording.h"
@@ -168,6 +172,7 @@ struct SimConfig {
   PoseSensorConfig pose;
   double ground_truth_rate_hz = 100.0;
   SimEffects effects;
+  std::vector<PhysicsTerm> terms;              // `terms:`, in the order given
   std::string source_file;
 };
 
@@ -201,6 +206,7 @@ class Simulator {
  private:
   struct State;
   void StepPhysics(double dt);
+  Twist2 WithTerms(std::vector<double> effective_omega, std::vector<double> true_raw, const Twist2& kinematic) const;
   // The sensor messages that fall due now (AdvanceTo), into `sink`.
   void PublishWheels(MessageSink* sink);
   void PublishImu(MessageSink* sink);
