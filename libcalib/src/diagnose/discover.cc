@@ -57,6 +57,7 @@ class Discovery {
   const char* CataloguedAlike(const Step& step, const LinearFit& with);
   Discovered Describe(int term, const LinearFit& all);
   LinearFit Relinearise(LinearFit fit);
+  void DropWeakest(LinearFit* base);
   void Correct(const LinearFit& all);
   void MeasureMisfit(const LinearFit& all);
   double VarianceFactor(const LinearFit& f) const {
@@ -72,7 +73,7 @@ class Discovery {
   std::vector<DiscoveryRow> rows_;
   DesignColumns chosen_;
   std::vector<Step> steps_;
-  std::vector<int> excluded_;  // terms a catalogued effect explains as well
+  std::vector<int> excluded_;  // terms a catalogued effect explains as well, or the others explain
 };
 
 Step Discovery::BestTerm(const LinearFit& base) {
@@ -122,6 +123,25 @@ const char* Discovery::CataloguedAlike(const Step& step, const LinearFit& with) 
   return nullptr;
 }
 
+// Backward step: a term chosen earlier that the later ones explain (its Wald test given them no
+// longer passes at the library-wide level) leaves, and does not come back.
+void Discovery::DropWeakest(LinearFit* base) {
+  const int L = int(terms_.size());
+  while (!chosen_.terms.empty()) {
+    int weakest = 0;
+    double weakest_z = 1e300;
+    for (int k = 0; k < int(chosen_.terms.size()); ++k) {
+      const double z = std::abs(base->Value(rows_[0], k) / base->Std(rows_[0], k));
+      if (z < weakest_z) weakest = k, weakest_z = z;
+    }
+    if (std::erfc(weakest_z / std::sqrt(2.0)) * L < alpha_) return;
+    excluded_.push_back(chosen_.terms[weakest]);
+    chosen_.terms.erase(chosen_.terms.begin() + weakest);
+    steps_.erase(steps_.begin() + weakest);
+    *base = FitRows(rows_, chosen_, recording_.hac_lags);
+  }
+}
+
 void Discovery::Run() {
   if (rows_.size() < 30 || terms_.empty()) return;
   const int L = int(terms_.size());
@@ -129,7 +149,7 @@ void Discovery::Run() {
   while (int(chosen_.terms.size()) < kMaxTerms) {
     const Step step = BestTerm(base);
     if (step.term < 0) break;
-    const double p_adjusted = std::min(1.0, step.p * double(L - int(chosen_.terms.size()) - int(excluded_.size())));
+    const double p_adjusted = std::min(1.0, step.p * double(L - int(chosen_.terms.size())));
     if (p_adjusted >= alpha_) break;
     DesignColumns with = chosen_;
     with.terms.push_back(step.term);
@@ -145,8 +165,14 @@ void Discovery::Run() {
     chosen_ = with;
     steps_.push_back({step.term, step.z, p_adjusted});
     base = f;
+    DropWeakest(&base);
   }
   if (!chosen_.terms.empty()) base = Relinearise(base);
+  // The evidence of each term given the others, in the final joint fit.
+  for (int k = 0; k < int(chosen_.terms.size()); ++k) {
+    steps_[k].z = base.Value(rows_[0], k) / base.Std(rows_[0], k);
+    steps_[k].p = std::min(1.0, L * std::erfc(std::abs(steps_[k].z) / std::sqrt(2.0)));
+  }
   for (int k = 0; k < int(chosen_.terms.size()); ++k) report_->discovered.push_back(Describe(k, base));
   if (!chosen_.terms.empty()) Correct(base);
   MeasureMisfit(base);
