@@ -58,8 +58,13 @@ class Discovery {
   Discovered Describe(int term, const LinearFit& all);
   LinearFit Relinearise(LinearFit fit);
   void DropWeakest(LinearFit* base);
+  void NoteStop(const Step& step, double p_adjusted, const char* why);
   void Correct(const LinearFit& all);
   void MeasureMisfit(const LinearFit& all);
+  // The chosen term k's coefficient: where the rows are linearised plus the fit's step.
+  double TermValue(const LinearFit& f, int k) const {
+    return (coefficients_.empty() ? 0.0 : coefficients_[chosen_.terms[k]]) + f.Value(rows_[0], k);
+  }
   double VarianceFactor(const LinearFit& f) const {
     return f.chi2_fit / std::max(1, 3 * f.n_fit - f.params);
   }
@@ -68,6 +73,7 @@ class Discovery {
   const double alpha_;
   DiagnoseReport* report_;
   Model model_;  // where the rows are linearised
+  std::vector<double> coefficients_;  // and the terms' values there (empty before)
   std::vector<LibraryTerm> terms_;
   std::vector<int> free_betas_;
   std::vector<DiscoveryRow> rows_;
@@ -142,6 +148,16 @@ void Discovery::DropWeakest(LinearFit* base) {
   }
 }
 
+// Why discovery stopped at a term that came close: what the recording could not model.
+void Discovery::NoteStop(const Step& step, double p_adjusted, const char* why) {
+  std::ostringstream s;
+  s.precision(3);
+  s << "discovery: the strongest library term left, " << TermChannelName(terms_[step.term].channel) << " by "
+    << terms_[step.term].regressor << " (Wald z " << step.z << ", p " << p_adjusted
+    << " after the correction over the library), is not modelled: " << why;
+  report_->notes.push_back(s.str());
+}
+
 void Discovery::Run() {
   if (rows_.size() < 30 || terms_.empty()) return;
   const int L = int(terms_.size());
@@ -150,11 +166,17 @@ void Discovery::Run() {
     const Step step = BestTerm(base);
     if (step.term < 0) break;
     const double p_adjusted = std::min(1.0, step.p * double(L - int(chosen_.terms.size())));
-    if (p_adjusted >= alpha_) break;
+    if (p_adjusted >= alpha_) {
+      if (p_adjusted < 10 * alpha_) NoteStop(step, p_adjusted, "short of the library-wide level");
+      break;
+    }
     DesignColumns with = chosen_;
     with.terms.push_back(step.term);
     const LinearFit f = FitRows(rows_, with, recording_.hac_lags);
-    if (!Confirmed(step, base, f)) break;
+    if (!Confirmed(step, base, f)) {
+      NoteStop(step, p_adjusted, "the held-out blocks or BIC do not confirm it");
+      break;
+    }
     if (const char* name = CataloguedAlike(step, f)) {
       excluded_.push_back(step.term);
       report_->notes.push_back(std::string("the residual the library term ") + TermChannelName(terms_[step.term].channel) +
@@ -170,7 +192,7 @@ void Discovery::Run() {
   if (!chosen_.terms.empty()) base = Relinearise(base);
   // The evidence of each term given the others, in the final joint fit.
   for (int k = 0; k < int(chosen_.terms.size()); ++k) {
-    steps_[k].z = base.Value(rows_[0], k) / base.Std(rows_[0], k);
+    steps_[k].z = TermValue(base, k) / base.Std(rows_[0], k);
     steps_[k].p = std::min(1.0, L * std::erfc(std::abs(steps_[k].z) / std::sqrt(2.0)));
   }
   for (int k = 0; k < int(chosen_.terms.size()); ++k) report_->discovered.push_back(Describe(k, base));
@@ -215,7 +237,7 @@ Discovered Discovery::Describe(int k, const LinearFit& all) {
   d.channel = TermChannelName(t.channel);
   DiscoveredTerm term;
   term.regressor = t.regressor;
-  term.coefficient = {all.Value(rows_[0], k), all.Std(rows_[0], k)};
+  term.coefficient = {TermValue(all, k), all.Std(rows_[0], k)};
   term.unit = CoefficientUnit(t.channel, t.regressor);
   d.terms.push_back(term);
   d.equation = Equation(t.channel, t.regressor, term.coefficient.value, term.unit);
@@ -226,7 +248,11 @@ Discovered Discovery::Describe(int k, const LinearFit& all) {
   d.p_adjusted = steps_[k].p;
   DesignColumns without = chosen_;
   without.terms.erase(without.terms.begin() + k);
-  const LinearFit before = FitRows(rows_, without, recording_.hac_lags);
+  // The rows without the term (linearised where it is at its value).
+  std::vector<DiscoveryRow> rows_without = rows_;
+  const double at = coefficients_.empty() ? 0.0 : coefficients_[chosen_.terms[k]];
+  for (DiscoveryRow& row : rows_without) row.r -= row.G.col(chosen_.terms[k]) * at;
+  const LinearFit before = FitRows(rows_without, without, recording_.hac_lags);
   d.delta_bic = (all.chi2_fit - before.chi2_fit) / VarianceFactor(before) + std::log(3.0 * all.n_fit);
   // The term's contribution, unwhitened, and where it stands out: the tenth of the intervals
   // where it is largest.
@@ -237,7 +263,7 @@ Discovered Discovery::Describe(int k, const LinearFit& all) {
     const DiscoveryRow& row = rows_[i];
     contribution[i] = row.unwhiten * row.G.col(chosen_.terms[k]) * term.coefficient.value;
     energy += contribution[i].cwiseAbs2();
-    err_before[i] = row.unwhiten * ResidualLeft(row, without, before);
+    err_before[i] = row.unwhiten * ResidualLeft(rows_without[i], without, before);
     err_after[i] = row.unwhiten * ResidualLeft(row, chosen_, all);
     size.push_back((row.G.col(chosen_.terms[k]) * term.coefficient.value).norm());
   }
@@ -274,9 +300,11 @@ Discovered Discovery::Describe(int k, const LinearFit& all) {
 // calibration absorbs part of a term's effect, and the regressors computed with the absorbing
 // values would bias the term's size.
 LinearFit Discovery::Relinearise(LinearFit fit) {
+  coefficients_.assign(terms_.size(), 0.0);
   for (int step = 0; step < 3; ++step) {
     model_ = Updated(recording_, model_, free_betas_, fit.coef.data());
-    rows_ = DiscoveryRows(recording_, model_, terms_, free_betas_);
+    for (std::size_t k = 0; k < chosen_.terms.size(); ++k) coefficients_[chosen_.terms[k]] += fit.Value(rows_[0], int(k));
+    rows_ = DiscoveryRows(recording_, model_, terms_, free_betas_, coefficients_);
     fit = FitRows(rows_, chosen_, recording_.hac_lags);
   }
   return fit;

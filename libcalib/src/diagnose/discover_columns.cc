@@ -30,9 +30,10 @@ struct Integrated {
 };
 
 // The wheel odometry of `it` over its window, each library term `terms[k]` (k < kMaxIntegrated,
-// not timing) entering through its channel with the derivative in the Jet's component k.
+// not timing) entering through its channel at `coefficients[k]` (none: all 0) with the
+// derivative in the Jet's component k.
 Integrated Integrate(const Recording& recording, const Interval& it, const Model& m,
-                     const std::vector<LibraryTerm>& terms) {
+                     const std::vector<LibraryTerm>& terms, const std::vector<double>& coefficients) {
   const Track& tr = recording.track;
   const int nw = tr.wheels;
   const int64_t t0 = it.motion->utime_start;
@@ -70,7 +71,7 @@ Integrated Integrate(const Recording& recording, const Interval& it, const Model
     TermJet yaw_extra(0.0);
     for (std::size_t k = 0; k < terms.size() && k < std::size_t(kMaxIntegrated); ++k) {
       const double g = FindTermRegressor(terms[k].regressor)->value(motion);
-      TermJet eps(0.0, int(k));
+      TermJet eps(coefficients.empty() ? 0.0 : coefficients[k], int(k));
       if (terms[k].channel == TermChannel::kYawRate) yaw_extra += eps * (g * (te - ts));
       if (terms[k].channel == TermChannel::kRadius)
         for (int w = 0; w < nw; ++w) rot[w] += eps * (g * rotation[w]);
@@ -105,7 +106,8 @@ Model Updated(const Recording& recording, const Model& m, const std::vector<int>
 }
 
 std::vector<DiscoveryRow> DiscoveryRows(const Recording& recording, const Model& m,
-                                        const std::vector<LibraryTerm>& terms, const std::vector<int>& free_betas) {
+                                        const std::vector<LibraryTerm>& terms, const std::vector<int>& free_betas,
+                                        const std::vector<double>& coefficients) {
   std::vector<int> all_betas;
   for (int j = 0; j < kNumBeta; ++j) all_betas.push_back(j);
   const std::vector<int> free_params = FreeParams(recording);
@@ -131,11 +133,21 @@ std::vector<DiscoveryRow> DiscoveryRows(const Recording& recording, const Model&
     for (int k = 0; k < 3; ++k) row.A.col(c++) = jac.mount.col(k);
     for (int j : free_betas) row.A.col(c++) = jac.beta.col(j);
     row.C = jac.beta;
-    const Integrated in = Integrate(recording, it, m, terms);
+    const Integrated in = Integrate(recording, it, m, terms, coefficients);
     // z = l^-1 q l, r = U (m - z): each term's column is -U dz/dc.
     using P = generic::Pose<TermJet>;
     const P l{TermJet(m.mount[0]), TermJet(m.mount[1]), TermJet(m.mount[2])};
     const P z = generic::Compose(generic::Compose(generic::Inverse(l), in.q), l);
+    double timing = 0;  // the timing terms' offset at the interval
+    if (!coefficients.empty()) {
+      // The residual with the terms at their coefficients, to every order: the model's, moved by
+      // the terms' change of the predicted motion.
+      const P z0 = generic::Compose(generic::Compose(generic::Inverse(l), Integrate(recording, it, m, terms, {}).q), l);
+      row.r -= U * Eigen::Vector3d(z.x.a - z0.x.a, z.y.a - z0.y.a, z.theta.a - z0.theta.a);
+      for (std::size_t k = 0; k < terms.size(); ++k)
+        if (terms[k].channel == TermChannel::kTiming) timing += coefficients[k] * in.mid_time;
+      row.r += jac.beta.col(kTimeOffset) * timing;
+    }
     row.G.resize(3, terms.size());
     for (std::size_t k = 0; k < terms.size(); ++k) {
       Eigen::Vector3d dz = Eigen::Vector3d::Zero();

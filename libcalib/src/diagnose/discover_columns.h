@@ -28,9 +28,12 @@ struct DiscoveryRow {
 };
 
 // The rows of every interval not set aside, in time order, for the library `terms`; `free_betas`
-// are the effect parameters the final model `m` fits (their columns join A).
+// are the effect parameters the final model `m` fits (their columns join A). With
+// `coefficients` (one per term), the residual and the columns are those of `m` with the terms
+// at these values (the timing terms to first order).
 std::vector<DiscoveryRow> DiscoveryRows(const Recording& recording, const Model& m,
-                                        const std::vector<LibraryTerm>& terms, const std::vector<int>& free_betas);
+                                        const std::vector<LibraryTerm>& terms, const std::vector<int>& free_betas,
+                                        const std::vector<double>& coefficients = {});
 
 // The drive parameters the final model fits (not held), in A's order.
 std::vector<int> FreeParams(const Recording& recording);
