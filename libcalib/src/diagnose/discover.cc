@@ -60,6 +60,7 @@ class Discovery {
   void DropWeakest(LinearFit* base);
   void NoteStop(const Step& step, double p_adjusted, const char* why);
   void Correct(const LinearFit& all);
+  void DemoteExplained(const LinearFit& all);
   void MeasureMisfit(const LinearFit& all);
   // The chosen term k's coefficient: where the rows are linearised plus the fit's step.
   double TermValue(const LinearFit& f, int k) const {
@@ -137,13 +138,15 @@ void Discovery::DropWeakest(LinearFit* base) {
     int weakest = 0;
     double weakest_z = 1e300;
     for (int k = 0; k < int(chosen_.terms.size()); ++k) {
-      const double z = std::abs(base->Value(rows_[0], k) / base->Std(rows_[0], k));
+      const double z = std::abs(TermValue(*base, k) / base->Std(rows_[0], k));
       if (z < weakest_z) weakest = k, weakest_z = z;
     }
     if (std::erfc(weakest_z / std::sqrt(2.0)) * L < alpha_) return;
     excluded_.push_back(chosen_.terms[weakest]);
+    if (!coefficients_.empty()) coefficients_[chosen_.terms[weakest]] = 0.0;
     chosen_.terms.erase(chosen_.terms.begin() + weakest);
     steps_.erase(steps_.begin() + weakest);
+    rows_ = DiscoveryRows(recording_, model_, terms_, free_betas_, coefficients_);
     *base = FitRows(rows_, chosen_, recording_.hac_lags);
   }
 }
@@ -186,17 +189,19 @@ void Discovery::Run() {
     }
     chosen_ = with;
     steps_.push_back({step.term, step.z, p_adjusted});
-    base = f;
+    base = Relinearise(f);
     DropWeakest(&base);
   }
-  if (!chosen_.terms.empty()) base = Relinearise(base);
   // The evidence of each term given the others, in the final joint fit.
   for (int k = 0; k < int(chosen_.terms.size()); ++k) {
     steps_[k].z = TermValue(base, k) / base.Std(rows_[0], k);
     steps_[k].p = std::min(1.0, L * std::erfc(std::abs(steps_[k].z) / std::sqrt(2.0)));
   }
   for (int k = 0; k < int(chosen_.terms.size()); ++k) report_->discovered.push_back(Describe(k, base));
-  if (!chosen_.terms.empty()) Correct(base);
+  if (!chosen_.terms.empty()) {
+    Correct(base);
+    DemoteExplained(base);
+  }
   MeasureMisfit(base);
 }
 
@@ -300,7 +305,7 @@ Discovered Discovery::Describe(int k, const LinearFit& all) {
 // calibration absorbs part of a term's effect, and the regressors computed with the absorbing
 // values would bias the term's size.
 LinearFit Discovery::Relinearise(LinearFit fit) {
-  coefficients_.assign(terms_.size(), 0.0);
+  if (coefficients_.empty()) coefficients_.assign(terms_.size(), 0.0);
   for (int step = 0; step < 3; ++step) {
     model_ = Updated(recording_, model_, free_betas_, fit.coef.data());
     for (std::size_t k = 0; k < chosen_.terms.size(); ++k) coefficients_[chosen_.terms[k]] += fit.Value(rows_[0], int(k));
@@ -308,6 +313,38 @@ LinearFit Discovery::Relinearise(LinearFit fit) {
     fit = FitRows(rows_, chosen_, recording_.hac_lags);
   }
   return fit;
+}
+
+// A catalogued effect the selection declared that the discovered terms explain (its parameter no
+// longer significant in the joint fit, at the catalogue-wide level) is not declared: the term
+// explains its residual and more, and nothing is reported twice.
+void Discovery::DemoteExplained(const LinearFit& all) {
+  const int first_beta = int(FreeParams(recording_).size()) + 3;
+  const double m = double(CataloguedGroups().size());
+  std::vector<FoundEffect> kept;
+  for (const FoundEffect& e : report_->effects) {
+    bool explained = false;
+    for (const CataloguedGroup& g : CataloguedGroups()) {
+      if (e.name != g.name || g.betas.size() != 1) continue;
+      const auto at = std::find(free_betas_.begin(), free_betas_.end(), g.betas[0]);
+      if (at == free_betas_.end()) continue;
+      const int c = first_beta + int(at - free_betas_.begin());
+      const double value = model_.beta[g.betas[0]] + all.coef[c], std = std::sqrt(std::max(all.cov(c, c), 0.0));
+      explained = std > 0 && std::erfc(std::abs(value / std) / std::sqrt(2.0)) * m >= alpha_;
+    }
+    if (explained)
+      for (CandidateOutcome& c : report_->candidates)
+        if (c.name == e.name && c.wheel == e.wheel && c.status == CandidateStatus::kFound) {
+          c.status = CandidateStatus::kRejected;
+          c.note = "explained by the discovered terms";
+        }
+    if (explained)
+      report_->notes.push_back(e.name + ", declared by the catalogue's selection, is explained by the discovered "
+                               "terms (not significant beside them): not declared");
+    else
+      kept.push_back(e);
+  }
+  report_->effects = kept;
 }
 
 // The intervals' residuals after, and the held-out RMS, with the terms found.

@@ -15,6 +15,7 @@
 #include "calib/core/physics_terms.h"
 #include "calib/io/messages.h"
 #include "sim/lidar3d_model.h"
+#include "sim/sim_terms.h"
 #include "sim/wheel_physics.h"
 
 namespace calib {
@@ -157,39 +158,14 @@ void Simulator::StepPhysics(double dt) {
 
   // Body motion from the wheels' true motion, with the true parameters.
   Twist2 twist = s.true_model->Forward({effective_omega, true_raw});
-  if (!config_.terms.empty()) twist = WithTerms(effective_omega, true_raw, twist);
+  if (!config_.terms.empty())
+    twist = WithTerms(*s.true_model, config_, s.steered, (utime_ - config_.start_utime) * 1e-6, effective_omega, true_raw,
+                      twist);
   if (fx.lateral_slip_gain != 0 && Inside(fx.lateral_slip_region, pose_)) twist.vy += -fx.lateral_slip_gain * twist.vx * twist.omega;
   pose_ = Compose(pose_, ExpTwist(twist, dt));
   s.omega_body = twist.omega;
   const double c = std::cos(pose_.theta), sn = std::sin(pose_.theta);
   s.velocity_world = Eigen::Vector2d(c * twist.vx - sn * twist.vy, sn * twist.vx + c * twist.vy);
-}
-
-// The terms of the config (physics_terms.h) through their channels, at the kinematic motion
-// `kinematic` of the wheels' effective speeds and true steering angles.
-Twist2 Simulator::WithTerms(std::vector<double> effective_omega, std::vector<double> true_raw,
-                            const Twist2& kinematic) const {
-  const State& s = *state_;
-  const auto& roles = WheelRoles(config_.robot.drive);
-  TermMotion motion;
-  motion.speed = kinematic.vx;
-  motion.turn_rate = kinematic.omega;
-  motion.time = (utime_ - config_.start_utime) * 1e-6;
-  for (size_t i = 0; i < roles.size(); ++i) {
-    if (!s.steered[i]) continue;
-    const std::string offset_name = SteerOffsetParamName(roles[i]);
-    motion.steer = true_raw[i] - (offset_name.empty() ? 0.0 : config_.true_params.at(offset_name));
-    break;
-  }
-  const double radius = ChannelChange(config_.terms, TermChannel::kRadius, motion);
-  const double steer = ChannelChange(config_.terms, TermChannel::kSteer, motion);
-  for (size_t i = 0; i < roles.size(); ++i) {
-    effective_omega[i] *= 1.0 + radius;
-    if (s.steered[i]) true_raw[i] += steer;
-  }
-  Twist2 twist = s.true_model->Forward({effective_omega, true_raw});
-  twist.omega += ChannelChange(config_.terms, TermChannel::kYawRate, motion);
-  return twist;
 }
 
 // WHEELS: encoder ticks (with tick noise), wheel speeds and steering readings.

@@ -206,7 +206,6 @@ class Simulator {
  private:
   struct State;
   void StepPhysics(double dt);
-  Twist2 WithTerms(std::vector<double> effective_omega, std::vector<double> true_raw, const Twist2& kinematic) const;
   // The sensor messages that fall due now (AdvanceTo), into `sink`.
   void PublishWheels(MessageSink* sink);
   void PublishImu(MessageSink* sink);
