@@ -87,6 +87,19 @@ TEST(Discover, ScrubIsModelledAsAYawRateTerm) {
   ASSERT_EQ(j["discovered"].size(), 1u);
   EXPECT_EQ(j["discovered"][0]["terms"][0]["unit"], "s/rad");
   EXPECT_EQ(j["discovered"][0]["channel"], "yaw_rate");
+
+  // The sim-to-real loop: the config `--write-sim` writes carries the term, and a recording
+  // simulated from it is diagnosed with the same term within the sigmas.
+  SimConfig again = ParseSimConfig(SimConfigYaml(r, Source("config/robots/diff_robot.yaml")), "written.yaml", ".");
+  ASSERT_EQ(again.terms.size(), 1u);
+  again.seed = 9;
+  again.imu.rate_hz = 0.0;
+  const DiagnoseReport r2 = DiagnoseSim(again);
+  ASSERT_FALSE(r2.discovered.empty()) << "re-simulated: verdict " << r2.verdict;
+  EXPECT_EQ(r2.discovered[0].terms[0].regressor, "turn_rate*|turn_rate|") << DiscoveredText(r2);
+  const ParamEstimate& c2 = r2.discovered[0].terms[0].coefficient;
+  EXPECT_LE(std::abs(c2.value - c.value), std::max(2.0 * std::hypot(c.std, c2.std), 0.05 * std::abs(c.value)))
+      << DiscoveredText(r) << " against re-simulated " << DiscoveredText(r2);
 }
 
 // The wheels' rolling radius grows with speed (tyre growth): a radius term by |speed|.
