@@ -4,7 +4,7 @@ a planted term (sim config `terms:`) at several sizes, physics the library has n
 controls, each diagnosed blind; prints a Markdown table (truth against what was discovered, the
 verdict, the misfit) and the tallies.
 
-  scripts/discover_suite.py [--seeds N] [--jobs J] [--quick]
+  scripts/discover_suite.py [--seeds N] [--jobs J] [--quick] [--only planted|outside|controls]
 """
 import argparse
 import concurrent.futures as cf
@@ -53,13 +53,16 @@ def main():
     ap.add_argument("--seeds", type=int, default=2)
     ap.add_argument("--jobs", type=int, default=2)
     ap.add_argument("--quick", action="store_true", help="one seed, the largest and smallest size")
+    ap.add_argument("--only", choices=["planted", "outside", "controls"], help="one kind of recording")
     a = ap.parse_args()
     seeds = range(101, 101 + (1 if a.quick else a.seeds))
     cases = []
-    for sim, channel, regressor, coefs, _ in PLANTED:
+    for sim, channel, regressor, coefs, lib in PLANTED:
+        if a.only and a.only != ("planted" if lib else "outside"):
+            continue
         for coef in ([coefs[0], coefs[-1]] if a.quick else coefs):
             cases += [(sim, channel, regressor, coef, s) for s in seeds]
-    for sim in CONTROLS:
+    for sim in CONTROLS if a.only in (None, "controls") else []:
         cases += [(sim, "", "", 0, s) for s in range(201, 201 + (2 if a.quick else 2 * a.seeds))]
     in_library = {(c, r) for _, c, r, _, lib in PLANTED if lib}
     work = tempfile.mkdtemp(prefix="discover_suite_")

@@ -102,11 +102,23 @@ Step Discovery::BestTerm(const LinearFit& base) {
 }
 
 // BIC on the fit blocks (chi-squares in the noise scale of the model it is added to) and the
-// held-out score test, one-sided at alpha.
+// held-out proofs: chi-square and chained heading error lower, the score test one-sided at alpha.
 bool Discovery::Confirmed(const Step& step, const LinearFit& base, const LinearFit& with) {
   const double scale = VarianceFactor(base);
   const double delta_bic = (with.chi2_fit - base.chi2_fit) / scale + std::log(3.0 * base.n_fit);
   if (delta_bic >= 0) return false;
+  // The held-out residual must be lower with the term, interval by interval (chi-square) and
+  // chained (the heading error over drift windows), as well as along its direction (score).
+  if (with.chi2_heldout >= base.chi2_heldout) return false;
+  std::vector<Eigen::Vector3d> before, after;
+  DesignColumns added = chosen_;
+  added.terms.push_back(step.term);
+  for (const DiscoveryRow& row : rows_) {
+    before.push_back(row.unwhiten * ResidualLeft(row, chosen_, base));
+    after.push_back(row.unwhiten * ResidualLeft(row, added, with));
+  }
+  const double drift_before = ChainHeading(rows_, before, recording_.drift_window_s).Rms();
+  if (ChainHeading(rows_, after, recording_.drift_window_s).Rms() >= drift_before) return false;
   const double score = HeldoutScore(rows_, chosen_, step.term, base, recording_.hac_lags);
   return score * (step.z > 0 ? 1 : -1) > NormalUpper(alpha_);
 }
