@@ -3,7 +3,8 @@
 // while the gate changes), then the actuation layer and the structure left unexplained. Each step
 // has its own room: diagnose_fit (the fits), diagnose_heldout (the held-out proofs),
 // selection_fits and selection (the choice of effects), diagnose_region (effects of a region of
-// the floor), diagnose_actuation (commands against encoders), diagnose_describe (what the report
+// the floor), diagnose_actuation (commands against encoders), discover (physics outside the
+// catalogue, and the misfit the verdict reads), diagnose_describe (what the report
 // says of the model), diagnose_read (the recording), diagnose_output (the report's files).
 
 #include "calib/diagnose/diagnose.h"
@@ -23,6 +24,7 @@
 #include "diagnose/diagnose_describe.h"
 #include "diagnose/diagnose_fit.h"
 #include "diagnose/diagnose_internal.h"
+#include "diagnose/discover.h"
 #include "diagnose/selection_fits.h"
 
 namespace calib {
@@ -79,11 +81,12 @@ DiagnoseReport Diagnoser::Run() {
   const double actuation_alpha =
       options_.alpha * levels.actuation_candidates / double(levels.candidates + levels.actuation_candidates);
   DiagnoseActuation(robot_, data_, options_, actuation_alpha, &report);
+  DiscoverTerms(recording_, pass.chosen, options_.alpha, &report);
   FindUnexplained(recording_, options_.alpha, &report);
   std::stable_sort(report.unexplained.begin(), report.unexplained.end(),
                    [](const Unexplained& a, const Unexplained& b) { return a.p_value < b.p_value; });
   if (report.unexplained.size() > 3) report.unexplained.resize(3);  // the strongest; the rest add little
-  report.verdict = report.effects.empty() ? "no_significant_effect" : "effects_found";
+  report.verdict = Verdict(report);
   return std::move(report);
 }
 

@@ -138,6 +138,24 @@ std::string DiagnoseReportJson(const DiagnoseReport& r) {
   for (const Unexplained& u : r.unexplained)
     j["unexplained"].push_back({{"where", Spans(u.where, origin)}, {"correlates_with", u.correlates_with},
                                 {"p_value", Number(u.p_value)}, {"component", u.component}});
+  j["discovered"] = nlohmann::json::array();
+  for (const Discovered& d : r.discovered) {
+    nlohmann::json terms = nlohmann::json::array();
+    for (const DiscoveredTerm& t : d.terms)
+      terms.push_back({{"regressor", t.regressor}, {"unit", t.unit},
+                       {"coefficient", {{"value", Number(t.coefficient.value)}, {"std", Number(t.coefficient.std)}}}});
+    j["discovered"].push_back(
+        {{"channel", d.channel}, {"terms", terms}, {"equation", d.equation}, {"interpretation", d.interpretation},
+         {"evidence", {{"p_value", Number(d.p_adjusted)}, {"p_value_unadjusted", Number(d.p_value)},
+                       {"wald", Number(d.wald)}, {"delta_bic", Number(d.delta_bic)}}},
+         {"heldout_component", d.component}, {"heldout_rms_before", Number(d.heldout_rms_before)},
+         {"heldout_rms_after", Number(d.heldout_rms_after)},
+         {"heldout_drift", {{"component", "heading"}, {"window_s", d.drift_window_s}, {"windows", d.drift_windows},
+                            {"rms_before", Number(d.heldout_drift_before)}, {"rms_after", Number(d.heldout_drift_after)}}},
+         {"where", Spans(d.where, origin)}});
+  }
+  j["misfit"] = {{"variance_factor", Number(r.misfit.variance_factor)},
+                 {"heading_drift_ratio", Number(r.misfit.heading_drift_ratio)}, {"beyond", r.misfit.beyond}};
   j["indistinguishable"] = nlohmann::json::array();
   for (const Indistinguishable& d : r.indistinguishable)
     j["indistinguishable"].push_back({{"effects", {d.first, d.second}}, {"correlation", Number(d.correlation)},
@@ -222,8 +240,28 @@ std::string DiagnoseSummaryText(const DiagnoseReport& r) {
     s << "Set aside: " << 100.0 * r.outlier_share << " % of all intervals; strongest correlation with |"
       << strongest->first << "| (" << strongest->second << ").\n";
   }
-  if (r.effects.empty()) {
+  if (r.effects.empty() && r.discovered.empty() && r.misfit.beyond) {
+    s << "UNMODELLED STRUCTURE: the final model's residuals are far beyond a well-fitting recording's (variance factor "
+      << r.misfit.variance_factor << ", near 1 for a model that fits; held-out heading error over drift windows "
+      << r.misfit.heading_drift_ratio << " times what independent noise of that size gives), and no catalogued effect "
+      << "or library term explains them: physics is missing that the diagnosis cannot name.\n";
+  } else if (r.effects.empty() && r.discovered.empty()) {
     s << "No significant unmodelled physics: the calibrated model explains the recording within its noise.\n";
+  }
+  for (const Discovered& d : r.discovered) {
+    s << "\nDISCOVERED PHYSICS (not in effects.md), through the " << d.channel << " channel:\n  " << d.equation << "\n";
+    for (const DiscoveredTerm& t : d.terms)
+      s << "  coefficient of " << t.regressor << ": " << EstimateText(t.coefficient.value, t.coefficient.std, t.unit) << "\n";
+    s << "  reading: " << d.interpretation << "\n  evidence: " << PValueText(d.p_adjusted)
+      << " after the correction over the library, delta BIC " << d.delta_bic << "\n  where: " << d.where.size()
+      << " time spans";
+    if (!d.where.empty()) s << ", at " << SpanTimes(d.where, ReportTimeOrigin(r)) << " (s since the recording's first message)";
+    s << "\n  held-out " << d.component << " residual where it acts: "
+      << BeforeAfter(d.heldout_rms_before, d.heldout_rms_after, ComponentUnit(d.component)) << " ("
+      << Percent(d.heldout_rms_before, d.heldout_rms_after) << " lower); held-out heading error over "
+      << d.drift_window_s << " s (" << d.drift_windows << " windows): "
+      << BeforeAfter(d.heldout_drift_before, d.heldout_drift_after, "rad") << " ("
+      << Percent(d.heldout_drift_before, d.heldout_drift_after) << " lower)\n";
   }
   for (const FoundEffect& e : r.effects) {
     // The held-out measure that judges the effect is marked.
@@ -364,7 +402,7 @@ std::string CompareWithSimJson(const DiagnoseReport& real, const DiagnoseReport&
 std::string SimConfigYaml(const DiagnoseReport& r, const std::string& robot_path) {
   std::ostringstream s;
   s.precision(10);
-  s << "# Written by agvcal diagnose: the calibration and the effects found, so that the\n"
+  s << "# Written by agvcal diagnose: the calibration, the effects found and the terms discovered, so that the\n"
        "# simulator reproduces the recorded robot.\n";
   s << "robot: " << robot_path << "\ntruth:\n  params: {";
   bool first = true;
@@ -389,6 +427,11 @@ std::string SimConfigYaml(const DiagnoseReport& r, const std::string& robot_path
     fx << "}\n";
   }
   if (!fx.str().empty()) s << "effects:\n" << fx.str();
+  if (!r.discovered.empty()) s << "terms:  # physics outside effects.md the diagnosis discovered\n";
+  for (const Discovered& d : r.discovered)
+    for (const DiscoveredTerm& t : d.terms)
+      s << "  - {channel: " << d.channel << ", regressor: \"" << t.regressor << "\", coefficient: " << t.coefficient.value
+        << "}\n";
   return s.str();
 }
 

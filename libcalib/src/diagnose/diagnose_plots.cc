@@ -222,6 +222,15 @@ void AddTables(const DiagnoseReport& r, const Clock& sec, ReportPage* page) {
     page->Table({"effect", "size ± 1σ", "p (catalogue-wide)", "where it stands out", "under what motion"},
                 EffectRows(r, sec));
   }
+  if (!r.discovered.empty()) {
+    page->Heading("Physics discovered outside the catalogue");
+    std::vector<std::vector<std::string>> rows;
+    for (const Discovered& d : r.discovered)
+      rows.push_back({d.channel, d.equation, d.interpretation, PValueNumber(d.p_adjusted),
+                      d.where.empty() ? "-" : SpanTimes(d.where, sec.t0)});
+    page->Table({"channel", "equation (coefficient units as written)", "reading", "p (library-wide)", "where it stands out"},
+                rows);
+  }
   page->Heading("Every candidate of the catalogue");
   page->Paragraph("Status found: in the model now; rejected: significant alone but explained by the effects found "
                   "(a look-alike); indistinguishable: the recording cannot tell it from its look-alike; "

@@ -282,6 +282,30 @@ void ReadEffects(const Reporter& r, const Field& field, SimConfig* cfg) {
   }
 }
 
+// `terms:` (core/physics_terms.h): a list of {channel, regressor, coefficient}.
+void ReadTerms(const Reporter& r, const Field& field, SimConfig* cfg) {
+  if (!field.value.IsSequence()) r.Fail(field, "expected a list of {channel, regressor, coefficient}");
+  for (std::size_t k = 0; k < field.value.size(); ++k) {
+    const Field item{field.path + "[" + std::to_string(k) + "]", std::max(field.line, yaml::LineOf(field.value[k].Mark())), field.value[k]};
+    const CheckedMap m(r, item, {"channel", "regressor", "coefficient"});
+    PhysicsTerm term;
+    const Field channel = m.Get("channel");
+    if (!ParseTermChannel(ReadString(r, channel), &term.channel))
+      r.Fail(channel, "expected yaw_rate, radius, steer or timing");
+    if (term.channel == TermChannel::kSteer && cfg->robot.drive == DriveType::kDifferential)
+      r.Fail(channel, "a differential drive has no steering");
+    const Field regressor = m.Get("regressor");
+    term.regressor = ReadString(r, regressor);
+    if (!FindTermRegressor(term.regressor)) {
+      std::vector<std::string> names;
+      for (const TermRegressor& t : TermRegressors()) names.push_back(t.name);
+      r.Fail(regressor, "unknown regressor '" + term.regressor + "' (known: " + yaml::Join(names, ", ") + ")");
+    }
+    term.coefficient = ReadNumber(r, m.Get("coefficient"));
+    cfg->terms.push_back(term);
+  }
+}
+
 }  // namespace
 
 SimConfig ParseSimConfig(const std::string& yaml_text, const std::string& origin,
@@ -289,7 +313,7 @@ SimConfig ParseSimConfig(const std::string& yaml_text, const std::string& origin
   const Reporter r(origin);
   const Field root = yaml::ParseSingleDocument(r, yaml_text, "simulation config");
   const CheckedMap top(r, root, {"robot", "seed", "world", "start", "start_utime", "physics_step",
-                                 "commands", "truth", "sensors", "effects"});
+                                 "commands", "truth", "sensors", "effects", "terms"});
   SimConfig cfg;
   cfg.source_file = origin;
   const Field robot_field = top.Get("robot", "path of the robot file");
@@ -354,6 +378,7 @@ SimConfig ParseSimConfig(const std::string& yaml_text, const std::string& origin
   if (const auto f = top.Find("truth")) ReadTruth(r, *f, &cfg);
   if (const auto f = top.Find("sensors")) ReadSensors(r, *f, &cfg);
   if (const auto f = top.Find("effects")) ReadEffects(r, *f, &cfg);
+  if (const auto f = top.Find("terms")) ReadTerms(r, *f, &cfg);
   return cfg;
 }
 

@@ -12,8 +12,10 @@
 #include "agvcal/point_cloud_t.hpp"
 #include "agvcal/pose2d_t.hpp"
 #include "agvcal/wheel_state_t.hpp"
+#include "calib/core/physics_terms.h"
 #include "calib/io/messages.h"
 #include "sim/lidar3d_model.h"
+#include "sim/sim_terms.h"
 #include "sim/wheel_physics.h"
 
 namespace calib {
@@ -156,6 +158,9 @@ void Simulator::StepPhysics(double dt) {
 
   // Body motion from the wheels' true motion, with the true parameters.
   Twist2 twist = s.true_model->Forward({effective_omega, true_raw});
+  if (!config_.terms.empty())
+    twist = WithTerms(*s.true_model, config_, s.steered, (utime_ - config_.start_utime) * 1e-6, effective_omega, true_raw,
+                      twist);
   if (fx.lateral_slip_gain != 0 && Inside(fx.lateral_slip_region, pose_)) twist.vy += -fx.lateral_slip_gain * twist.vx * twist.omega;
   pose_ = Compose(pose_, ExpTwist(twist, dt));
   s.omega_body = twist.omega;
@@ -237,7 +242,10 @@ void Simulator::PublishScan(MessageSink* sink) {
   if (cfg.effects.scan_distortion_period_s)
     dt_beam = *cfg.effects.scan_distortion_period_s / L.beams;
   agvcal::laser_scan_t msg{};
-  msg.utime = start + std::llround(cfg.effects.time_offset_s.value_or(0.0) * 1e6);
+  TermMotion at_start;
+  at_start.time = (start - cfg.start_utime) * 1e-6;
+  const double offset_s = cfg.effects.time_offset_s.value_or(0.0) + ChannelChange(cfg.terms, TermChannel::kTiming, at_start);
+  msg.utime = start + std::llround(offset_s * 1e6);
   msg.angle_min = static_cast<float>(-L.fov_rad / 2.0);
   msg.angle_increment = static_cast<float>(increment);
   msg.time_increment = cfg.effects.scan_distortion_period_s ? 0.0f : static_cast<float>(dt_beam);

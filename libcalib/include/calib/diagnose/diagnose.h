@@ -239,10 +239,44 @@ struct Unexplained {
   std::string component;
 };
 
+// Physics outside effects.md the diagnosis modelled from the library of core/physics_terms.h
+// (REPORT.json `discovered`, spec/cli.md; diagnose/discover.h says how).
+struct DiscoveredTerm {
+  std::string regressor;    // e.g. "turn_rate*|turn_rate|"
+  ParamEstimate coefficient;
+  std::string unit;         // of the coefficient
+};
+
+struct Discovered {
+  std::string channel;      // yaw_rate, radius, steer, timing (physics_terms.h)
+  std::vector<DiscoveredTerm> terms;
+  std::string equation, interpretation;
+  std::string component;    // the residual component it shows most in (x, y, yaw)
+  double wald = 0, p_value = 1, p_adjusted = 1, delta_bic = 0;
+  // Held-out, with the other terms and the calibration refitted without and with it: the RMS of
+  // `component` where it stands out and the heading error chained over drift_window_s windows.
+  double heldout_rms_before = 0, heldout_rms_after = 0;
+  double heldout_drift_before = 0, heldout_drift_after = 0;
+  int drift_windows = 0;
+  double drift_window_s = 0;
+  std::vector<TimeSpan> where;
+};
+
+// How far the final model's residuals are beyond a well-fitting recording's.
+struct Misfit {
+  // The final model's chi-square per degree of freedom on the fit blocks in the matcher's own
+  // covariance (a well-fitting recording's is near 1).
+  double variance_factor = 1;
+  // The held-out heading error chained over drift windows against what independent noise of the
+  // final model's own per-interval size would chain to (near 1 without structure in time).
+  double heading_drift_ratio = 1;
+  bool beyond = false;  // far beyond a well-fitting recording's
+};
+
 struct DiagnoseReport {
   DriveType drive = DriveType::kDifferential;
   MotionSource source = MotionSource::kLidar2d;
-  std::string verdict;  // effects_found | no_significant_effect
+  std::string verdict;  // effects_found | no_significant_effect | unmodelled_structure
   std::vector<std::string> param_names;
   std::map<std::string, ParamEstimate> calibration;  // baseline (fit blocks), params + mount.*
   std::map<std::string, ParamEstimate> refitted;     // jointly with the effects found
@@ -252,6 +286,8 @@ struct DiagnoseReport {
   std::vector<Borderline> borderline;
   std::vector<MovedEffect> moved;
   std::vector<Unexplained> unexplained;
+  std::vector<Discovered> discovered;
+  Misfit misfit;
   std::vector<DiagnosedInterval> intervals;
   double heldout_rms_before[3] = {0, 0, 0}, heldout_rms_after[3] = {0, 0, 0};
   double heldout_chi2_before = 0, heldout_chi2_after = 0;  // per held-out interval

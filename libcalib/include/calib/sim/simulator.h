@@ -61,6 +61,9 @@
 //       # point is inside this box of the world frame, m (a wet patch); absent: everywhere
 //     wheel_eccentricity: {amplitude: 0.003, phase: 0.4, wheel: left}
 //     ...
+//   terms:                            # physics outside effects.md (core/physics_terms.h)
+//     - {channel: yaw_rate, regressor: "turn_rate*|turn_rate|", coefficient: -0.3}
+//       # channel yaw_rate, radius, steer or timing; regressor and units: docs/effects.md
 // A sensor with rate 0 is off. lidar2d is on when the robot file has a
 // lidar2d, imu when it has an imu, pose when it has a pose source; lidar3d is
 // off unless given a rate.
@@ -76,6 +79,7 @@
 
 #include "calib/core/drive_command.h"
 #include "calib/core/kinematics.h"
+#include "calib/core/physics_terms.h"
 #include "calib/core/robot.h"
 #include "calib/core/se2.h"
 #include "calib/io/recording.h"
@@ -175,6 +179,7 @@ struct SimConfig {
   PoseSensorConfig pose;
   double ground_truth_rate_hz = 100.0;
   SimEffects effects;
+  std::vector<PhysicsTerm> terms;              // `terms:`, in the order given
   std::string source_file;
 };
 

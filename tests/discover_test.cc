@@ -1,0 +1,141 @@
+// Physics outside spec/effects.md: the simulator plants it through a sim config's `terms:`
+// block; the diagnosis must not call such a recording explained within its noise, must model a
+// term of its library (core/physics_terms.h) with its channel, regressor and size, and must leave
+// a control alone. The truth comes from the simulator config only.
+
+#include <gtest/gtest.h>
+
+#include <cmath>
+#include <string>
+
+#include <nlohmann/json.hpp>
+
+#include "calib/core/errors.h"
+#include "calib/diagnose/diagnose.h"
+#include "calib/sim/simulator.h"
+#include "sim_log.h"
+
+namespace calib {
+namespace {
+
+using test_support::SimLog;
+using test_support::Source;
+
+SimConfig Sim(const std::string& name, uint64_t seed, const std::vector<PhysicsTerm>& terms) {
+  SimConfig config = LoadSimConfig(Source("config/sims/" + name + ".yaml"));
+  config.seed = seed;
+  config.imu.rate_hz = 0.0;
+  config.terms = terms;
+  return config;
+}
+
+DiagnoseReport DiagnoseSim(const SimConfig& config) {
+  const SimLog log(config);
+  const DiagnoseData data = ReadDiagnoseData(config.robot, log.path(), nullptr);
+  return Diagnose(config.robot, data, DiagnoseOptions{}, log.path());
+}
+
+std::string DiscoveredText(const DiagnoseReport& r) {
+  std::string s;
+  for (const calib::Discovered& d : r.discovered)
+    s += d.channel + " by " + d.terms[0].regressor + " = " + std::to_string(d.terms[0].coefficient.value) + " ± " +
+         std::to_string(d.terms[0].coefficient.std) + "; ";
+  return s.empty() ? "(none)" : s;
+}
+
+TEST(SimTerms, ConfigTakesATermsBlockAndNamesAnUnknownRegressor) {
+  const std::string base = "robot: " + Source("config/robots/diff_robot.yaml") + "\n";
+  const SimConfig c = ParseSimConfig(
+      base + "terms:\n  - {channel: yaw_rate, regressor: \"turn_rate*|turn_rate|\", coefficient: -0.3}\n", "t.yaml", ".");
+  ASSERT_EQ(c.terms.size(), 1u);
+  EXPECT_EQ(c.terms[0].channel, TermChannel::kYawRate);
+  EXPECT_EQ(c.terms[0].regressor, "turn_rate*|turn_rate|");
+  EXPECT_DOUBLE_EQ(c.terms[0].coefficient, -0.3);
+  try {
+    ParseSimConfig(base + "terms:\n  - {channel: yaw_rate, regressor: omega, coefficient: 1}\n", "t.yaml", ".");
+    FAIL() << "an unknown regressor was accepted";
+  } catch (const InputError& e) {
+    const std::string what = e.what();
+    EXPECT_NE(what.find("t.yaml"), std::string::npos) << what;
+    EXPECT_NE(what.find("line 3"), std::string::npos) << what;
+    EXPECT_NE(what.find("unknown regressor 'omega'"), std::string::npos) << what;
+  }
+  EXPECT_THROW(ParseSimConfig(base + "terms:\n  - {channel: steer, regressor: time, coefficient: 1}\n", "t.yaml", "."),
+               InputError);  // a differential drive has no steering
+}
+
+// The body turns less than its wheels say, the more so the faster it turns (scrub): out of the
+// catalogue, modelled as a yaw-rate term by turn_rate*|turn_rate|, its size within 20 % or 2σ.
+TEST(Discover, ScrubIsModelledAsAYawRateTerm) {
+  const double k = -0.2;  // s/rad
+  const DiagnoseReport r = DiagnoseSim(Sim("diff_robot", 5, {{TermChannel::kYawRate, "turn_rate*|turn_rate|", k}}));
+  EXPECT_NE(r.verdict, "no_significant_effect");
+  EXPECT_EQ(r.verdict, "effects_found");
+  ASSERT_FALSE(r.discovered.empty()) << "misfit " << r.misfit.variance_factor;
+  const Discovered& d = r.discovered[0];
+  EXPECT_EQ(d.channel, "yaw_rate") << DiscoveredText(r);
+  EXPECT_EQ(d.terms[0].regressor, "turn_rate*|turn_rate|") << DiscoveredText(r);
+  const ParamEstimate& c = d.terms[0].coefficient;
+  EXPECT_TRUE(std::abs(c.value - k) <= std::max(0.2 * std::abs(k), 2.0 * c.std)) << DiscoveredText(r);
+  EXPECT_LT(d.heldout_drift_after, 0.7 * d.heldout_drift_before);
+  EXPECT_EQ(r.discovered.size(), 1u) << DiscoveredText(r);
+  for (const FoundEffect& e : r.effects) ADD_FAILURE() << "catalogued effect declared: " << e.name;
+  const std::string summary = DiagnoseSummaryText(r);
+  EXPECT_EQ(summary.find("within its noise"), std::string::npos) << summary;
+  EXPECT_NE(summary.find("ω_true = ω_kin·(1 − "), std::string::npos) << summary;
+  const nlohmann::json j = nlohmann::json::parse(DiagnoseReportJson(r));
+  ASSERT_EQ(j["discovered"].size(), 1u);
+  EXPECT_EQ(j["discovered"][0]["terms"][0]["unit"], "s/rad");
+  EXPECT_EQ(j["discovered"][0]["channel"], "yaw_rate");
+
+  // The sim-to-real loop: the config `--write-sim` writes carries the term, and a recording
+  // simulated from it is diagnosed with the same term within the sigmas.
+  SimConfig again = ParseSimConfig(SimConfigYaml(r, Source("config/robots/diff_robot.yaml")), "written.yaml", ".");
+  ASSERT_EQ(again.terms.size(), 1u);
+  again.seed = 9;
+  again.imu.rate_hz = 0.0;
+  const DiagnoseReport r2 = DiagnoseSim(again);
+  ASSERT_FALSE(r2.discovered.empty()) << "re-simulated: verdict " << r2.verdict;
+  EXPECT_EQ(r2.discovered[0].terms[0].regressor, "turn_rate*|turn_rate|") << DiscoveredText(r2);
+  const ParamEstimate& c2 = r2.discovered[0].terms[0].coefficient;
+  EXPECT_LE(std::abs(c2.value - c.value), std::max(2.0 * std::hypot(c.std, c2.std), 0.05 * std::abs(c.value)))
+      << DiscoveredText(r) << " against re-simulated " << DiscoveredText(r2);
+}
+
+// The wheels' rolling radius grows with speed (tyre growth): a radius term by |speed|.
+TEST(Discover, TyreGrowthIsModelledAsARadiusTerm) {
+  const double k = 0.03;  // s/m
+  const DiagnoseReport r = DiagnoseSim(Sim("diff_robot", 6, {{TermChannel::kRadius, "|speed|", k}}));
+  ASSERT_FALSE(r.discovered.empty()) << "verdict " << r.verdict << ", misfit " << r.misfit.variance_factor;
+  const Discovered& d = r.discovered[0];
+  EXPECT_EQ(d.channel, "radius") << DiscoveredText(r);
+  EXPECT_EQ(d.terms[0].regressor, "|speed|") << DiscoveredText(r);
+  const ParamEstimate& c = d.terms[0].coefficient;
+  EXPECT_TRUE(std::abs(c.value - k) <= std::max(0.2 * std::abs(k), 2.0 * c.std)) << DiscoveredText(r);
+}
+
+// Physics the library has no term for (a yaw rate that grows with time since the start): the
+// verdict says the model does not fit, never that it explains the recording within its noise.
+TEST(Discover, PhysicsOutsideTheLibraryIsUnmodelledStructure) {
+  const DiagnoseReport r = DiagnoseSim(Sim("diff_robot", 7, {{TermChannel::kYawRate, "time", 2e-4}}));
+  EXPECT_EQ(r.verdict, "unmodelled_structure") << "variance factor " << r.misfit.variance_factor << ", drift ratio "
+                                               << r.misfit.heading_drift_ratio << "; " << DiscoveredText(r);
+  EXPECT_TRUE(r.misfit.beyond);
+  const std::string summary = DiagnoseSummaryText(r);
+  EXPECT_EQ(summary.find("within its noise"), std::string::npos) << summary;
+  EXPECT_NE(summary.find("UNMODELLED STRUCTURE"), std::string::npos) << summary;
+}
+
+// Controls: the same robots without a term.
+TEST(Discover, ControlsHaveNoTermAndFitWithinTheirNoise) {
+  for (uint64_t seed : {5, 6, 7}) {
+    const DiagnoseReport r = DiagnoseSim(Sim("diff_robot", seed, {}));
+    EXPECT_EQ(r.verdict, "no_significant_effect") << "seed " << seed << ": " << DiscoveredText(r);
+    EXPECT_TRUE(r.discovered.empty()) << "seed " << seed << ": " << DiscoveredText(r);
+    EXPECT_FALSE(r.misfit.beyond) << "seed " << seed << ": variance factor " << r.misfit.variance_factor
+                                  << ", drift ratio " << r.misfit.heading_drift_ratio;
+  }
+}
+
+}  // namespace
+}  // namespace calib
