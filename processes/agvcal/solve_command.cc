@@ -175,6 +175,9 @@ int Solve(int argc, char** argv) {
       if (a.p < 0.01)
         std::printf("  no fixed calibration fits both halves: the robot's odometry changed during the recording,\n"
                     "  or physics the model leaves out acts differently on the halves' motions (agvcal diagnose)\n");
+    } else if (!h.halves_not_compared.empty()) {
+      std::printf("  the halves are not compared: fitted alone, the held-out half says %s\n",
+                  h.halves_not_compared.c_str());
     }
   }
   calib::Outputs outputs;  // put in place together, only when all were written

@@ -104,6 +104,8 @@ std::string CalibrationResultJson(const CalibrationResult& r) {
                                 {"largest", halves->largest},
                                 {"largest_sigmas", halves->largest_sigmas},
                                 {"heldout_fit", fit}};
+    } else if (!r.heldout->halves_not_compared.empty()) {
+      j["heldout"]["halves_not_compared"] = r.heldout->halves_not_compared;
     }
   }
   return j.dump(2) + "\n";
