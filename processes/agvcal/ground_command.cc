@@ -7,6 +7,7 @@
 #include "calib/io/atomic_file.h"
 #include "commands.h"
 #include "common/process_util.h"
+#include "common/provenance.h"
 
 namespace agvcal_cli {
 
@@ -46,6 +47,7 @@ int Ground(int argc, char** argv) {
   Declare(&args);
   if (const auto status = args.Parse(argc, argv, 2)) return *status;
   const calib::RobotDescription robot = calib::LoadRobotFile(args.positional[0]);
+  agvcal_process::RecordProvenance(args, &robot, args.positional[1]);
   const calib::GroundOptions options =
       args.Has("--config") ? calib::LoadGroundOptions(args.Get("--config", "")) : calib::GroundOptions{};
   calib::CheckOutputs({args.positional[0], args.positional[1], args.Get("--config", "")},  // exit 2 before the work

@@ -14,6 +14,7 @@
 #include "calib/core/units.h"
 #include "commands.h"
 #include "common/process_util.h"
+#include "common/provenance.h"
 
 namespace agvcal_cli {
 
@@ -82,6 +83,7 @@ int Solve(int argc, char** argv) {
   if (const auto status = args.Parse(argc, argv, 2)) return *status;
   const calib::RobotDescription robot = calib::LoadRobotFile(args.positional[0]);
   const std::string log_path = args.positional[1];
+  agvcal_process::RecordProvenance(args, &robot, log_path);
 
   calib::SolveLogOptions options;
   options.calibration.estimate_time_offset = args.Has("--time-offset");
@@ -119,6 +121,7 @@ int Solve(int argc, char** argv) {
     std::cerr << "agvcal: " << result.input_dropped << " message(s) of " << log_path
               << " left out of the fit (RESULT.json input.notes)\n";
 
+  std::printf("%s\n\n", calib::SolveVerdict(result).c_str());
   std::printf("%s drive, %d intervals (%d outliers), residual rms x %s, y %s, yaw %s\n",
               calib::DriveTypeName(result.drive), result.residual.intervals, result.residual.outliers,
               calib::MillimetresText(result.residual.rms_x).c_str(), calib::MillimetresText(result.residual.rms_y).c_str(),

@@ -102,6 +102,14 @@ Requirement RequirementFor(DriveType type, const std::string& name, double nomin
   return {0.05, "turn while driving: the sensor's position shows only when the robot rotates"};
 }
 
+}  // namespace
+
+std::string MotionThatDetermines(DriveType drive, const std::string& name) {
+  return RequirementFor(drive, name, 1.0).remedy;
+}
+
+namespace {
+
 // The model's error at `state` on each held-out interval, as steps to chain (heldout.h).
 std::vector<OdometryStep> HeldoutSteps(const std::vector<Interval>& intervals, const State& state) {
   std::vector<OdometryStep> steps;
