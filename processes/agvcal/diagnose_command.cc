@@ -19,14 +19,14 @@ namespace {
 // The command line: arguments, options and the help made from them.
 void Declare(agvcal_process::CommandLine* args) {
   args->Description(R"(Compares the recording with the robot's calibrated model and names the physics
-the model leaves out (spec/effects.md): where and under what motion the residual
+the model leaves out (docs/spec/effects.md): where and under what motion the residual
 stands out, each effect fitted jointly with the calibration, tested against a
 false-alarm rate over the whole catalogue, and proven on held-out data
 (alternating time blocks the fit never sees). Prints a plain-words summary.)")
-      .Positional("ROBOT.yaml", "the robot file (spec/robot.md), calibrated")
+      .Positional("ROBOT.yaml", "the robot file (docs/spec/robot.md), calibrated")
       .Positional("LOG", "the robot's recording (lcm-logger)")
       .Option("--out", "REPORT.json",
-              "write the report (spec/cli.md), atomically; besides spec/cli.md's\n"
+              "write the report (docs/spec/cli.md), atomically; besides docs/spec/cli.md's\n"
               "keys: candidates[] (every candidate: status, estimate value/std,\n"
               "p_value, delta_bic, detectable, note saying why a significant one\n"
               "was not named), fit.outlier_share and fit.outlier_correlation (the\n"

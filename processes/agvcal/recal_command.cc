@@ -21,7 +21,7 @@ POSE frame, or odometry distance windows) are collected; every `decision.segment
 of them the robot is calibrated on some and the result compared with the
 calibration in use on the others; it is accepted only when significantly better
 there and consistent with the calibration in use (docs/recalibration.md).)")
-      .Positional("ROBOT.yaml", "the robot file (spec/robot.md)")
+      .Positional("ROBOT.yaml", "the robot file (docs/spec/robot.md)")
       .Positional("LOG", "the recording (lcm-logger)")
       .Option("--config", "RECAL.yaml", "zones or distance windows, decision levels, prior\n"
               "uncertainties (required)")

@@ -27,8 +27,8 @@ with WHEELS, jointly, by maximum likelihood, with one-sigma uncertainties.
 A differential drive with an IMU and no lidar (source imu, docs/imu.md) is
 calibrated with the gyro as the rotation reference and a measured distance as
 the scale, with the gyro's bias, scale (given a measured turn), mount yaw and
-time offset. Prints a summary; RESULT.json follows spec/cli.md.)")
-      .Positional("ROBOT.yaml", "the robot file (spec/robot.md)")
+time offset. Prints a summary; RESULT.json follows docs/spec/cli.md.)")
+      .Positional("ROBOT.yaml", "the robot file (docs/spec/robot.md)")
       .Positional("LOG", "the recording (lcm-logger)")
       .Option("--out", "RESULT.json", "write the result (atomically)")
       .Option("--write-robot", "FILE", "write ROBOT.yaml back with the calibrated values, std: and source:")

@@ -113,11 +113,7 @@ def shown_command_lines(text):
 def documented_options(names):
     """{command: {option: [doc files]}} from the command lines the docs show."""
     files = [os.path.join(SRC, "README.md")] + sorted(glob.glob(os.path.join(SRC, "docs", "*.md")))
-    spec = os.path.join(SRC, "..", "shared", "spec", "cli.md")
-    if os.path.exists(spec):
-        files.append(spec)
-    else:
-        print("note: %s not found, left out" % spec)
+    files.append(os.path.join(SRC, "docs", "spec", "cli.md"))
     command_re = re.compile(r"(?<![\w/.-])(?:build/)?(agvcal(?:-[a-z]+| [a-z]+)?)(?=\s|$)")
     documented = {}
     for path in files:
@@ -168,7 +164,7 @@ def main():
             if option not in options:
                 fail("%s: %s shows %s, which --help does not list" % (name, ", ".join(sorted(where)), option))
         for option in sorted(options - GENERIC - set(shown)):
-            fail("%s: %s is not shown with the command in README.md, docs/*.md or spec/cli.md" % (name, option))
+            fail("%s: %s is not shown with the command in README.md, docs/*.md or docs/spec/cli.md" % (name, option))
         print("%-20s %2d options, %2d shown in the docs" % (name, len(options - GENERIC), len(shown)))
     check_trajectories()
     print("%d commands checked, %d problems" % (len(found), len(failures)))
