@@ -22,7 +22,9 @@ utime,x,y,theta,heading_std,gyro_bias (theta unwrapped, rad).)")
       .Option("--out", "POSES.csv", "write the fused poses (atomically)")
       .Option("--policy", "filter|average",
               "short motions: Kalman filter (default) or the mean of\n"
-              "wheel and gyro below one wheel circumference (docs/imu.md)");
+              "wheel and gyro below one wheel circumference (docs/imu.md)")
+      .Footer("Exit status: 0 done; 2 unusable input (one line naming the file, the place and the\n"
+              "problem); 1 internal error.\n");
 }
 }  // namespace
 

@@ -37,7 +37,9 @@ live recording. INPUT may be gzip-compressed. OUT.log is written atomically.)")
               "            integer time = us, decimal = s; '#' comments, optional header\n"
               "Records repeating their predecessor's stamp are dropped and counted; a stamp\n"
               "going backwards, a malformed line or a truncated file is an error naming the\n"
-              "file and line (exit 2).\n");
+              "file and line (exit 2).\n"
+              "Exit status: 0 written; 2 unusable input (one line naming the file, the place and\n"
+              "the problem); 1 internal error.\n");
 }
 }  // namespace
 
