@@ -21,7 +21,8 @@ const char* kStyle =
     "figure{margin:14px 0}figure img{max-width:100%;height:auto;display:block;border:1px solid #eee}"
     "figcaption{font-size:13px;color:#444}"
     ".verdict{font-size:1.1em;font-weight:bold;padding:8px;border-left:4px solid #2a6;background:#f3faf5}"
-    ".provenance td,.provenance th{font-size:12px;font-family:monospace;overflow-wrap:anywhere}";
+    ".provenance td,.provenance th{font-size:12px;font-family:monospace;overflow-wrap:anywhere}"
+    ".provenance th{white-space:nowrap;width:1%}";
 
 }  // namespace
 
