@@ -9,7 +9,7 @@ cd "$here"
 
 packages=(build-essential cmake pkg-config ccache git iproute2 util-linux procps python3
   liblcm-dev liblcm-bin libglib2.0-dev libeigen3-dev libceres-dev libyaml-cpp-dev
-  nlohmann-json3-dev libcli11-dev libgtest-dev libncurses-dev zlib1g-dev libpcl-dev tmux supervisor
+  nlohmann-json3-dev libssl-dev libcli11-dev libgtest-dev libncurses-dev zlib1g-dev libpcl-dev tmux supervisor
   clang libclang-rt-14-dev
   python3-distributed python3-scipy python3-yaml python3-psycopg2 postgresql chromium)
 sudo=""

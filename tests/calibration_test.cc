@@ -279,6 +279,20 @@ TEST(HeldoutWindows, WindowLengthIsTheLongestThatGivesTheCount) {
   EXPECT_EQ(OdometryErrorOverPath(few, PathWindowLength(few, 20)).windows, 5);
 }
 
+// Fewer steps than windows asked for, one of them where the robot barely moved: the windows
+// are no shorter than the longest step, not as short as that one step, so the length said is
+// the path the windows hold.
+TEST(HeldoutWindows, FewerStepsThanWindowsGiveWindowsOfTheStepsPath) {
+  std::vector<OdometryStep> steps = StraightSteps(15);
+  for (std::size_t k = 0; k < steps.size(); ++k) steps[k].measured.x = 0.15 + 0.01 * double(k % 5);
+  steps[7].measured.x = 0.002;
+  const double length = PathWindowLength(steps, 20);
+  EXPECT_GE(length, 0.19) << "the longest step is 0.19 m";
+  const OdometryError e = OdometryErrorOverPath(steps, length);
+  EXPECT_GE(e.windows, 5);
+  for (const WindowError& w : e.per_window) EXPECT_LE(w.distance_m, 2.0 * length + 1e-9);
+}
+
 TEST(HeldoutWindows, SignTestIsTheExactBinomial) {
   OdometryError a, b;
   for (int k = 0; k < 20; ++k) {
@@ -379,6 +393,37 @@ TEST(HeldoutWindows, HalvesOfAChangedRobotDisagree) {
   EXPECT_EQ(a.largest, "wheelbase");
   EXPECT_NEAR(a.heldout_fit.at("wheelbase").value, changed.true_params.at("wheelbase"),
               0.002 * changed.true_params.at("wheelbase"));
+}
+
+// A held-out half that drove straight only cannot determine the track: the halves are not
+// compared (a value one half cannot determine differs between the halves by chance alone), and
+// the result says why.
+TEST(HeldoutWindows, HalvesAreNotComparedOnAValueTheHeldOutHalfCannotDetermine) {
+  const SimConfig config = PoseSim("diff_robot", 7);
+  const CalibrationData turning = Record(config, "default"), straight = Record(config, "straight");
+  const int64_t shift = turning.wheels().last_utime() + 1'000'000 - straight.wheels().first_utime();
+  CalibrationData spliced(config.robot);
+  for (std::size_t i = 0; i < turning.wheels().size(); ++i) spliced.AddWheels(turning.wheels().sample(i));
+  for (std::size_t i = 0; i < straight.wheels().size(); ++i) {
+    WheelSample w = straight.wheels().sample(i);
+    w.utime += shift;
+    spliced.AddWheels(w);
+  }
+  for (const SensorMotion& m : turning.motions()) spliced.AddMotion(m);
+  for (SensorMotion m : straight.motions()) {
+    m.utime_start += shift;
+    m.utime_end += shift;
+    spliced.AddMotion(m);
+  }
+  CalibrationOptions options;
+  // The fit half ends where the straight drive begins.
+  options.fit_fraction = double(turning.motions().size()) / double(spliced.motions().size());
+  const CalibrationResult r =
+      Calibrate(config.robot, spliced.wheels(), spliced.motions(), MotionSource::kPose, options, "sim");
+  ASSERT_TRUE(r.heldout.has_value());
+  EXPECT_FALSE(r.heldout->halves.has_value())
+      << "halves compared: p " << r.heldout->halves->p << ", largest " << r.heldout->halves->largest;
+  EXPECT_NE(r.heldout->halves_not_compared.find("track"), std::string::npos) << r.heldout->halves_not_compared;
 }
 
 }  // namespace

@@ -61,8 +61,10 @@ TEST(RobotFileWriteTest, RoundTripKeepsCommentsAndRoundsToSigma) {
   // Every comment of the input is still there, and the layout: same number of lines plus
   // the header and the std: and source: entries.
   const std::vector<std::string> before = CommentsOf(input), after = CommentsOf(out);
-  for (const std::string& c : before)
+  for (const std::string& c : before) {
+    if (c.find("nominal values") != std::string::npos) continue;  // dropped: the values are calibrated now
     EXPECT_NE(std::find(after.begin(), after.end(), c), after.end()) << "comment lost: " << c << "\n" << out;
+  }
   EXPECT_EQ(out.rfind("# Calibrated by agvcal solve from run 1.log\n", 0), 0u) << out;
   EXPECT_NE(out.find("  wheelbase: 1.43346          # m, drive wheel"), std::string::npos)
       << "value in place, comment at its column:\n" << out;
@@ -86,6 +88,23 @@ TEST(RobotFileWriteTest, RoundTripKeepsCommentsAndRoundsToSigma) {
   EXPECT_EQ(WrittenNumber(out, "yaw", out.find("std:")), "0.000097");
   EXPECT_NE(out.find("\nsource: run 1.log\n"), std::string::npos) << out;
   EXPECT_EQ(robot.lidar3d->body.has_value(), true) << "the rest of lidar3d is kept";
+}
+
+// Calibrated values are no longer "nominal values; calibration starts here": that comment goes,
+// and the header says what produced the values and how much of the recording they stand on.
+TEST(RobotFileWriteTest, CalibratedValuesLoseTheNominalCommentAndCarryTheirProvenance) {
+  const std::string input = ReadSource("config/robots/forklift.yaml");
+  ASSERT_NE(input.find("nominal values; calibration starts here"), std::string::npos);
+  const std::string details = "recording_sha256: 0123abcd\nfitted on the first 33 of 48 usable intervals (69 %)";
+  const std::string out = WriteCalibratedValues(input, "forklift.yaml", kForklift, "solve", "run.log", details);
+  EXPECT_EQ(out.find("nominal values"), std::string::npos) << out;
+  EXPECT_NE(out.find("\nparams:\n"), std::string::npos) << "the params line without its comment:\n" << out;
+  EXPECT_EQ(out.rfind("# Calibrated by agvcal solve from run.log\n#   recording_sha256: 0123abcd\n"
+                      "#   fitted on the first 33 of 48 usable intervals (69 %)\n", 0), 0u) << out;
+  // Written again: one header, the new one.
+  const std::string again = WriteCalibratedValues(out, "forklift.yaml", kForklift, "solve", "b.log", "date: x");
+  EXPECT_EQ(again.rfind("# Calibrated by agvcal solve from b.log\n#   date: x\n# Tricycle", 0), 0u) << again;
+  EXPECT_NO_THROW(ParseRobot(again, "again.yaml"));
 }
 
 TEST(RobotFileWriteTest, RewritingMergesStdAndKeepsOneHeader) {
@@ -147,6 +166,7 @@ TEST(RobotFileWriteTest, EveryBundledRobotFileRoundTrips) {
         EXPECT_NEAR(back.lidar3d->pitch, robot.lidar3d->pitch + 0.0123456, 0.0000005) << path;
       }
       for (const std::string& c : CommentsOf(ReadSource(dir + "/" + entry.path().filename().string()))) {
+        if (c.find("nominal values") != std::string::npos) continue;  // dropped: the values are calibrated now
         const std::vector<std::string> after = CommentsOf(out);
         EXPECT_NE(std::find(after.begin(), after.end(), c), after.end()) << path << ": comment lost: " << c;
       }

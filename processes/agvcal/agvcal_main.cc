@@ -1,4 +1,4 @@
-// agvcal: the offline front end (spec/cli.md). Each sub-command runs the same
+// agvcal: the offline front end (docs/spec/cli.md). Each sub-command runs the same
 // libcalib code as the live processes, on files, as fast as the machine allows.
 #include <string>
 

@@ -11,6 +11,7 @@
 #include "calib/io/atomic_file.h"
 #include "commands.h"
 #include "common/process_util.h"
+#include "common/provenance.h"
 
 namespace agvcal_cli {
 
@@ -18,14 +19,14 @@ namespace {
 // The command line: arguments, options and the help made from them.
 void Declare(agvcal_process::CommandLine* args) {
   args->Description(R"(Compares the recording with the robot's calibrated model and names the physics
-the model leaves out (spec/effects.md): where and under what motion the residual
+the model leaves out (docs/spec/effects.md): where and under what motion the residual
 stands out, each effect fitted jointly with the calibration, tested against a
 false-alarm rate over the whole catalogue, and proven on held-out data
 (alternating time blocks the fit never sees). Prints a plain-words summary.)")
-      .Positional("ROBOT.yaml", "the robot file (spec/robot.md), calibrated")
+      .Positional("ROBOT.yaml", "the robot file (docs/spec/robot.md), calibrated")
       .Positional("LOG", "the robot's recording (lcm-logger)")
       .Option("--out", "REPORT.json",
-              "write the report (spec/cli.md), atomically; besides spec/cli.md's\n"
+              "write the report (docs/spec/cli.md), atomically; besides docs/spec/cli.md's\n"
               "keys: candidates[] (every candidate: status, estimate value/std,\n"
               "p_value, delta_bic, detectable, note saying why a significant one\n"
               "was not named), fit.outlier_share and fit.outlier_correlation (the\n"
@@ -57,6 +58,8 @@ false-alarm rate over the whole catalogue, and proven on held-out data
       .Flag("--quiet",
             "no progress on stderr (else a line per step; a long run's candidate\n"
             "lines say how many are left and about how long they take)")
+      .Flag("--verbose", "also print the diagnosis's bookkeeping (REPORT.json's notes, the status\n"
+                         "and statistics of every candidate tested and not named)")
       .Footer("Exit status: 0 done (effects found or not); 2 unusable input; 3 the recording cannot\n"
               "determine the calibration itself; 1 internal error.\n");
 }
@@ -68,6 +71,7 @@ int Diagnose(int argc, char** argv) {
   if (const auto status = args.Parse(argc, argv, 2)) return *status;
   const calib::RobotDescription robot = calib::LoadRobotFile(args.positional[0]);
   const std::string log_path = args.positional[1];
+  agvcal_process::RecordProvenance(args, &robot, log_path);
   calib::DiagnoseOptions options;
   options.alpha = args.GetDouble("--alpha", options.alpha);
   options.block_s = args.GetDouble("--block-s", options.block_s);
@@ -91,7 +95,7 @@ int Diagnose(int argc, char** argv) {
 
   const calib::DiagnoseReport report = calib::DiagnoseLog(robot, log_path, options);
   for (const std::string& warning : report.warnings) std::cerr << "agvcal: warning: " << warning << "\n";
-  std::cout << calib::DiagnoseSummaryText(report);
+  std::cout << calib::DiagnoseSummaryText(report, args.Has("--verbose"));
 
   std::string json = calib::DiagnoseReportJson(report);
   if (args.Has("--sim")) {

@@ -17,12 +17,14 @@ void Declare(agvcal_process::CommandLine* args) {
 the same numbers as a live replay). ROBOT.yaml: calibrated by `agvcal solve
 --source imu`. Prints the final pose; --out writes one line per wheel state:
 utime,x,y,theta,heading_std,gyro_bias (theta unwrapped, rad).)")
-      .Positional("ROBOT.yaml", "the robot file (spec/robot.md), with imu")
+      .Positional("ROBOT.yaml", "the robot file (docs/spec/robot.md), with imu")
       .Positional("LOG", "the recording (lcm-logger)")
       .Option("--out", "POSES.csv", "write the fused poses (atomically)")
       .Option("--policy", "filter|average",
               "short motions: Kalman filter (default) or the mean of\n"
-              "wheel and gyro below one wheel circumference (docs/imu.md)");
+              "wheel and gyro below one wheel circumference (docs/imu.md)")
+      .Footer("Exit status: 0 done; 2 unusable input (one line naming the file, the place and the\n"
+              "problem); 1 internal error.\n");
 }
 }  // namespace
 

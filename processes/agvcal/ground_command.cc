@@ -7,6 +7,7 @@
 #include "calib/io/atomic_file.h"
 #include "commands.h"
 #include "common/process_util.h"
+#include "common/provenance.h"
 
 namespace agvcal_cli {
 
@@ -21,13 +22,13 @@ every frame, and the frames are combined. The grid search over (z, pitch, roll)
 runs as a cross-check; both estimates are printed side by side. A lidar that
 turns on its mount (lidar3d.rotation) gets one estimate per sector of its
 rotation range. Method and options: docs/ground.md.)")
-      .Positional("ROBOT.yaml", "the robot file (spec/robot.md), with lidar3d")
+      .Positional("ROBOT.yaml", "the robot file (docs/spec/robot.md), with lidar3d")
       .Positional("LOG|CLOUD_FILE", "a recording with CLOUD messages, a PCD file or a KITTI .bin frame")
-      .Option("--out", "RESULT.json", "write the result (spec/cli.md, plus grid and sectors), atomically")
+      .Option("--out", "RESULT.json", "write the result (docs/spec/cli.md, plus grid and sectors), atomically")
       .Option("--write-robot", "FILE",
               "write ROBOT.yaml back with lidar3d z, pitch, roll calibrated\n"
               "(m, rad), its comments and layout kept, each value rounded to its sigma;\n"
-              "std: and source: added (spec/robot.md)")
+              "std: and source: added (docs/spec/robot.md)")
       .Option("--config", "FILE", "options (defaults and every key: config/ground.yaml)")
       .Flag("--no-grid", "skip the grid search")
       .Option("--report", "DIR",
@@ -46,6 +47,7 @@ int Ground(int argc, char** argv) {
   Declare(&args);
   if (const auto status = args.Parse(argc, argv, 2)) return *status;
   const calib::RobotDescription robot = calib::LoadRobotFile(args.positional[0]);
+  agvcal_process::RecordProvenance(args, &robot, args.positional[1]);
   const calib::GroundOptions options =
       args.Has("--config") ? calib::LoadGroundOptions(args.Get("--config", "")) : calib::GroundOptions{};
   calib::CheckOutputs({args.positional[0], args.positional[1], args.Get("--config", "")},  // exit 2 before the work

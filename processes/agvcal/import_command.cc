@@ -14,13 +14,13 @@ namespace {
 // The command line: arguments, options and the help made from them.
 void Declare(agvcal_process::CommandLine* args) {
   args->Description(R"(Turns a dataset recorded elsewhere into an lcm-logger recording of the messages
-of spec/messages.md (WHEELS, SCAN, POSE), so that it can be calibrated like a
+of docs/spec/messages.md (WHEELS, SCAN, POSE), so that it can be calibrated like a
 live recording. INPUT may be gzip-compressed. OUT.log is written atomically.)")
       .Positional("FORMAT", "carmen, mines, lego, optiodom or pose-csv (below)")
       .Positional("INPUT", "the dataset's file")
       .Positional("OUT.log", "the recording to write")
       .Option("--robot", "ROBOT.yaml",
-              "robot file (spec/robot.md): wheel names, nominal values,\n"
+              "robot file (docs/spec/robot.md): wheel names, nominal values,\n"
               "channels; required except for pose-csv. Bundled:\n"
               "config/robots/datasets/*.yaml (docs/datasets.md)")
       .Flag("--quiet", "no summary on stderr")
@@ -37,7 +37,9 @@ live recording. INPUT may be gzip-compressed. OUT.log is written atomically.)")
               "            integer time = us, decimal = s; '#' comments, optional header\n"
               "Records repeating their predecessor's stamp are dropped and counted; a stamp\n"
               "going backwards, a malformed line or a truncated file is an error naming the\n"
-              "file and line (exit 2).\n");
+              "file and line (exit 2).\n"
+              "Exit status: 0 written; 2 unusable input (one line naming the file, the place and\n"
+              "the problem); 1 internal error.\n");
 }
 }  // namespace
 

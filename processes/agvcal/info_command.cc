@@ -19,7 +19,7 @@ duplicated stamps. A torn event (an lcm-logger killed mid-write) is skipped to t
 next valid event and named ("skipped: bytes B-E ..."), with the span of data lost;
 channel names are shown with unprintable bytes as \xNN. Fails with exit status 2
 on a file that is not an LCM log or a message that does not decode as the type of
-spec/messages.md.)")
+docs/spec/messages.md.)")
       .Positional("LOG", "the recording (lcm-logger)")
       .Flag("--json", "print the summary as JSON (channels with type, count, first and last\n"
             "utime, rate, out-of-order and duplicated counts)");

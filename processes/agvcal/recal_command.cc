@@ -8,6 +8,7 @@
 #include "calib/io/log_summary.h"
 #include "commands.h"
 #include "common/process_util.h"
+#include "common/provenance.h"
 
 namespace agvcal_cli {
 
@@ -20,7 +21,7 @@ POSE frame, or odometry distance windows) are collected; every `decision.segment
 of them the robot is calibrated on some and the result compared with the
 calibration in use on the others; it is accepted only when significantly better
 there and consistent with the calibration in use (docs/recalibration.md).)")
-      .Positional("ROBOT.yaml", "the robot file (spec/robot.md)")
+      .Positional("ROBOT.yaml", "the robot file (docs/spec/robot.md)")
       .Positional("LOG", "the recording (lcm-logger)")
       .Option("--config", "RECAL.yaml", "zones or distance windows, decision levels, prior\n"
               "uncertainties (required)")
@@ -46,6 +47,7 @@ int Recal(int argc, char** argv) {
   if (const auto status = args.Parse(argc, argv, 2)) return *status;
   if (!args.Has("--config")) throw calib::InputError("command line", "--config", "missing (the recalibration config)");
   const calib::RobotDescription robot = calib::LoadRobotFile(args.positional[0]);
+  agvcal_process::RecordProvenance(args, &robot, args.positional[1]);
   const calib::RecalConfig config = calib::LoadRecalConfig(args.Get("--config", ""));
   const calib::MotionSource source =
       agvcal_process::MotionSourceOption(args, {calib::MotionSource::kLidar2d, calib::MotionSource::kPose},

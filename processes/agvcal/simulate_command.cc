@@ -24,7 +24,9 @@ seed give the same bytes.)")
               "excitation trajectory (default \"default\"); per drive type:\n" +
                   agvcal_process::TrajectoryNamesText())
       .Option("--seed", "N", "overrides the config's seed")
-      .Flag("--quiet", "no progress on stderr");
+      .Flag("--quiet", "no progress on stderr")
+      .Footer("Exit status: 0 written; 2 unusable input (the config, robot or world file: one line\n"
+              "naming the file, the place and the problem); 1 internal error.\n");
 }
 }  // namespace
 

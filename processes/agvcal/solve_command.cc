@@ -14,6 +14,7 @@
 #include "calib/core/units.h"
 #include "commands.h"
 #include "common/process_util.h"
+#include "common/provenance.h"
 
 namespace agvcal_cli {
 
@@ -26,8 +27,8 @@ with WHEELS, jointly, by maximum likelihood, with one-sigma uncertainties.
 A differential drive with an IMU and no lidar (source imu, docs/imu.md) is
 calibrated with the gyro as the rotation reference and a measured distance as
 the scale, with the gyro's bias, scale (given a measured turn), mount yaw and
-time offset. Prints a summary; RESULT.json follows spec/cli.md.)")
-      .Positional("ROBOT.yaml", "the robot file (spec/robot.md)")
+time offset. Prints a summary; RESULT.json follows docs/spec/cli.md.)")
+      .Positional("ROBOT.yaml", "the robot file (docs/spec/robot.md)")
       .Positional("LOG", "the recording (lcm-logger)")
       .Option("--out", "RESULT.json", "write the result (atomically)")
       .Option("--write-robot", "FILE", "write ROBOT.yaml back with the calibrated values, std: and source:")
@@ -82,6 +83,7 @@ int Solve(int argc, char** argv) {
   if (const auto status = args.Parse(argc, argv, 2)) return *status;
   const calib::RobotDescription robot = calib::LoadRobotFile(args.positional[0]);
   const std::string log_path = args.positional[1];
+  agvcal_process::RecordProvenance(args, &robot, log_path);
 
   calib::SolveLogOptions options;
   options.calibration.estimate_time_offset = args.Has("--time-offset");
@@ -119,6 +121,7 @@ int Solve(int argc, char** argv) {
     std::cerr << "agvcal: " << result.input_dropped << " message(s) of " << log_path
               << " left out of the fit (RESULT.json input.notes)\n";
 
+  std::printf("%s\n\n", calib::SolveVerdict(result).c_str());
   std::printf("%s drive, %d intervals (%d outliers), residual rms x %s, y %s, yaw %s\n",
               calib::DriveTypeName(result.drive), result.residual.intervals, result.residual.outliers,
               calib::MillimetresText(result.residual.rms_x).c_str(), calib::MillimetresText(result.residual.rms_y).c_str(),
@@ -175,6 +178,9 @@ int Solve(int argc, char** argv) {
       if (a.p < 0.01)
         std::printf("  no fixed calibration fits both halves: the robot's odometry changed during the recording,\n"
                     "  or physics the model leaves out acts differently on the halves' motions (agvcal diagnose)\n");
+    } else if (!h.halves_not_compared.empty()) {
+      std::printf("  the halves are not compared: fitted alone, the held-out half says %s\n",
+                  h.halves_not_compared.c_str());
     }
   }
   calib::Outputs outputs;  // put in place together, only when all were written

@@ -19,7 +19,8 @@ and holds it (sending stop commands) until `agvcal stop --release`, then resumes
 its trajectory from rest. The message is sent three times, 50 ms apart (UDP).)")
       .Flag("--release", "release a stop")
       .Option("--reason", "TEXT", "logged with the stop")
-      .Option("--lcm-url", "URL", agvcal_process::kLcmUrlHelp);
+      .Option("--lcm-url", "URL", agvcal_process::kLcmUrlHelp)
+      .Footer("Exit status: 0 sent; 2 the bus did not open or publishing failed; 1 internal error.\n");
 }
 }  // namespace
 

@@ -39,7 +39,7 @@ held still (stop commands; the trajectory resumes from rest afterwards) while
 WHEELS or the lidar's scans (lidar2d channel of ROBOT.yaml) are stale, while its
 own HEARTBEAT does not come back from the bus, and from an operator stop on
 STOP (`agvcal stop`) until its release (`agvcal stop --release`).)")
-      .Positional("ROBOT.yaml", "the robot file (spec/robot.md)")
+      .Positional("ROBOT.yaml", "the robot file (docs/spec/robot.md)")
       .Option("--trajectory", "NAME",
               "excitation trajectory (default \"default\"); per drive type:\n" +
                   agvcal_process::TrajectoryNamesText())

@@ -7,6 +7,7 @@
 #include <iostream>
 #include <stdexcept>
 
+#include "agvcal_version.h"
 #include "calib/core/errors.h"
 
 namespace agvcal_process {
@@ -90,7 +91,21 @@ int CommandLine::Refuse(const std::string& problem) const {
   return calib::kExitBadInput;
 }
 
+namespace {
+// `arg` as a POSIX shell reads it back: single-quoted unless it holds only safe characters.
+std::string ShellQuoted(const std::string& arg) {
+  const bool safe = !arg.empty() && arg.find_first_not_of("abcdefghijklmnopqrstuvwxyzABCDEFGHIJKLMNOPQRSTUVWXYZ"
+                                                          "0123456789@%+=:,./_-") == std::string::npos;
+  if (safe) return arg;
+  std::string out = "'";
+  for (const char c : arg) out += c == '\'' ? std::string("'\\''") : std::string(1, c);
+  return out + "'";
+}
+}  // namespace
+
 std::optional<int> CommandLine::Parse(int argc, char** argv, int first) {
+  as_run.clear();
+  for (int i = 0; i < argc; ++i) as_run += (i ? " " : "") + ShellQuoted(argv[i]);
   std::vector<std::string> args(argv + std::min(first, argc), argv + argc);
   std::reverse(args.begin(), args.end());  // CLI11 takes them last first
   // What CLI11 did not recognise: the first unknown option, else the first extra argument.

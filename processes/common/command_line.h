@@ -1,7 +1,7 @@
 #pragma once
 // The command line of every process and every agvcal sub-command, read by CLI11: each declares
 // its positional arguments and options once, and --help (generated from those declarations),
-// --version and the exit statuses of spec/cli.md follow from them.
+// --version and the exit statuses of docs/spec/cli.md follow from them.
 
 #include <map>
 #include <memory>
@@ -19,7 +19,8 @@ namespace agvcal_process {
 // The help of --lcm-url, the same for every process on the bus.
 extern const char* const kLcmUrlHelp;
 
-// The program's version (CMake's project version): what --version prints after the name.
+// The program's version (CMake's project version and git describe at build time): what
+// --version prints after the name.
 const char* Version();
 
 class CommandLine {
@@ -49,7 +50,9 @@ class CommandLine {
 
   std::string Help() const;
 
-  // After Parse: the positional arguments in their declared order, and the options given.
+  // After Parse: the whole command line as run (argv, quoted for a POSIX shell), the positional
+  // arguments in their declared order, and the options given.
+  std::string as_run;
   std::vector<std::string> positional;
   bool Has(const std::string& option) const;
   std::string Get(const std::string& option, const std::string& fallback) const;

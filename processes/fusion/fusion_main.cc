@@ -22,7 +22,7 @@ robot file calibrated by `agvcal solve --source imu`: params and the imu block
 give the model and the noise) and publishes the pose of the reference point on
 ODOM_FUSED (pose2d_t; odometry frame, origin at the first wheel state), plus
 HEARTBEAT. SIGINT/SIGTERM: processes what it received and exits.)")
-      .Positional("ROBOT.yaml", "the robot file (spec/robot.md), with imu")
+      .Positional("ROBOT.yaml", "the robot file (docs/spec/robot.md), with imu")
       .Option("--policy", "filter|average",
               "short motions: Kalman filter (default) or the mean of\n"
               "wheel and gyro below one wheel circumference (docs/imu.md)")

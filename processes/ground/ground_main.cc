@@ -25,7 +25,7 @@ mount, lidar3d.rotation.channel (mount_angle_t); publishes GROUND_ESTIMATE
 cloud and HEARTBEAT every second. On SIGINT/SIGTERM, or at the end of the log
 of a file:// provider, it writes RESULT.json (--out) as `agvcal ground` would
 from the same messages, and exits.)")
-      .Positional("ROBOT.yaml", "the robot file (spec/robot.md), with lidar3d")
+      .Positional("ROBOT.yaml", "the robot file (docs/spec/robot.md), with lidar3d")
       .Option("--config", "FILE", "options (config/ground.yaml)")
       .Option("--out", "FILE",
               "result at the end (nothing is written when the floor did not\n"

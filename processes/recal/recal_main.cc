@@ -28,7 +28,7 @@ every `decision.segments` segments it calibrates on some and compares with the
 calibration in use on the others, and accepts the new calibration only when it is
 significantly better there and consistent with the one in use
 (docs/recalibration.md). Publishes HEARTBEAT.)")
-      .Positional("ROBOT.yaml", "the robot file (spec/robot.md)")
+      .Positional("ROBOT.yaml", "the robot file (docs/spec/robot.md)")
       .Option("--config", "RECAL.yaml", "zones or distance windows, decision levels, prior\n"
               "uncertainties (required)")
       .Option("--out-robot", "CAL.yaml",

@@ -25,7 +25,7 @@ model, and publishes the lidar's motion between them with its covariance on
 SCAN_MATCH (agvcal::scan_match_t), plus HEARTBEAT. A match is published once
 the wheel data cover both scans. SIGINT/SIGTERM: matches what it can of the
 data received, publishes it, and exits.)")
-      .Positional("ROBOT.yaml", "the robot file (spec/robot.md), with lidar2d")
+      .Positional("ROBOT.yaml", "the robot file (docs/spec/robot.md), with lidar2d")
       .Option("--catch-up", "RECORDING",
               "on start, first read the WHEELS and scans published so far\n"
               "from the group's recording (lcm-logger's file, still being written),\n"

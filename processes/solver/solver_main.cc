@@ -38,7 +38,7 @@ void Declare(agvcal_process::CommandLine* args) {
 motion from agvcal-scanmatch) or with POSE (an external pose source). Publishes
 CALIB_ESTIMATE (estimates, sigmas, observability) after every N new motions and
 CALIB_RESIDUALS (per-interval residuals), and HEARTBEAT.)")
-      .Positional("ROBOT.yaml", "the robot file (spec/robot.md)")
+      .Positional("ROBOT.yaml", "the robot file (docs/spec/robot.md)")
       .Option("--source", "lidar2d|pose", "the sensor (default lidar2d if the robot file has one, else pose)")
       .Option("--every", "N", "re-solve after N new motions (default 200)")
       .Flag("--time-offset",
@@ -46,7 +46,7 @@ CALIB_RESIDUALS (per-interval residuals), and HEARTBEAT.)")
             "--catch-up, the final solve then matches the recording's scans a\n"
             "second time, de-skewed with the calibrated model, as `agvcal solve\n"
             "--time-offset` does (without --catch-up: once, and said on stderr)")
-      .Option("--out", "RESULT.json", "on exit, solve on all data and write the result (spec/cli.md)")
+      .Option("--out", "RESULT.json", "on exit, solve on all data and write the result (docs/spec/cli.md)")
       .Option("--catch-up", "RECORDING",
               "on start, first read the inputs published so far from the\n"
               "group's recording (lcm-logger's file, still being written),\n"

@@ -54,6 +54,58 @@ for m in re.finditer(r"could only detect it above (\S+) (\S+)", text):
 assert not re.search(r"could only detect it above [0-9.e-]+;", text), "a detectable size without unit"
 PY
 
+# Every number true: with 70 % fitted the forklift sample holds fewer held-out intervals than
+# --heldout-windows; the windows are no shorter than its longest interval, not "of 0.00 m".
+expect_status 0 "solve --fit-fraction 0.7 --report --out --write-robot" "$AGVCAL" solve $robot $log --quiet \
+  --fit-fraction 0.7 --report "$TMP/solve" --out "$TMP/solve.json" --write-robot "$TMP/calibrated.yaml"
+cp "$TMP/stdout" "$TMP/solve.out"
+python3 - "$TMP/solve.out" <<'PY' && pass "held-out windows of a true path length" || fail "held-out windows: $(grep windows "$TMP/solve.out")"
+import re, sys
+m = re.search(r"\((\d+) windows of ([0-9.]+) m\)", open(sys.argv[1]).read())
+assert m and float(m.group(2)) >= 0.05, m and m.group(0)
+PY
+# The differential sample's held-out 30 % cannot determine the track alone: no "halves disagree".
+expect_status 0 "solve diff_robot --fit-fraction 0.7" "$AGVCAL" solve config/robots/diff_robot.yaml \
+  logs/diff_robot_demo.log --quiet --fit-fraction 0.7
+if ! grep -q "halves disagree" "$TMP/stdout" && grep -q "the halves are not compared: .*cannot determine .*track" "$TMP/stdout"; then
+  pass "no false alarm: the halves not compared on a value the held-out half cannot determine"
+else fail "halves: $(grep -A2 halves "$TMP/stdout")"; fi
+
+# Every output says what produced it, and opens with a verdict.
+sha=$(sha256sum $log | cut -c1-64)
+python3 - "$TMP/solve.out" "$TMP/solve/summary.txt" "$TMP/solve.json" "$TMP/calibrated.yaml" "$sha" "$AGVCAL" <<'PY' \
+  && pass "provenance in summary.txt, RESULT.json and the written robot file; the verdict first" \
+  || fail "provenance or verdict missing"
+import json, re, subprocess, sys
+out, summary, result, robot, sha, agvcal = sys.argv[1:7]
+version = subprocess.run([agvcal, "--version"], capture_output=True, text=True).stdout.split(" ", 1)[1].strip()
+first = open(out).read().split("\n")[0]
+assert first.startswith("Write the calibration") or first.startswith("Calibrated, but") or \
+    first.startswith("The calibration is not") or first.startswith("Check before"), first
+text = open(summary).read()
+for line in ("robot_name: forklift-07", "robot_file: config/robots/forklift.yaml", "recording: logs/forklift_demo.log",
+             "recording_sha256: " + sha, "agvcal_version: " + version):
+    assert "\n" + line + "\n" in "\n" + text, (line, text)
+assert re.search(r"^command: \S*agvcal solve config/robots/forklift.yaml logs/forklift_demo.log .*--fit-fraction 0.7", text, re.M), text
+assert re.search(r"^date: \d{4}-\d\d-\d\dT\d\d:\d\d:\d\dZ$", text, re.M), text
+assert text.split("\n\n", 1)[1].startswith(first), (first, text)
+p = json.load(open(result))["provenance"]
+assert p["recording_sha256"] == sha and p["robot_name"] == "forklift-07" and p["agvcal_version"] == version, p
+yaml = open(robot).read()
+assert "nominal values" not in yaml, yaml
+assert "#   recording_sha256: " + sha in yaml, yaml
+assert re.search(r"#   fitted on the first (\d+) of (\d+) usable intervals \((6[0-9]|7[0-9]) %\)", yaml), yaml
+PY
+
+# The diagnosis's bookkeeping stays off the console (and REPORT.json keeps it) unless --verbose.
+expect_status 0 "diagnose" "$AGVCAL" diagnose $robot $log --quiet --out "$TMP/diag.json"
+if ! grep -qE "log SSE|^note: |not_significant|boxes of the route \(x 0 \.\. 0" "$TMP/stdout" &&
+   grep -q "log SSE" "$TMP/diag.json"; then
+  pass "no internal notes on the console; REPORT.json keeps them"
+else fail "diagnose console: $(grep -E "log SSE|^note: |not_significant" "$TMP/stdout" | head -3)"; fi
+expect_status 0 "diagnose --verbose" "$AGVCAL" diagnose $robot $log --quiet --verbose
+grep -q "^note: actuation: .*log SSE" "$TMP/stdout" && pass "--verbose prints the notes" || fail "--verbose: no notes"
+
 # Paths checked before the analysis: exit 2 at once, naming the path, no progress printed.
 touch "$TMP/a_file"
 expect_status 2 "--report at an existing file" "$AGVCAL" diagnose $robot $log --report "$TMP/a_file"

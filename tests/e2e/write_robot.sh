@@ -1,6 +1,6 @@
 #!/usr/bin/env bash
 # `solve --write-robot` and `ground --write-robot` (offline): the written robot file keeps the
-# input's comments and layout, each value is rounded to its sigma (no 17-digit floats) and
+# input's comments and layout (but for the "nominal values" note), says what produced it, each value is rounded to its sigma (no 17-digit floats) and
 # within that rounding of RESULT.json's estimate, it reads back, and the std: and source: keys
 # are there. Ground writes lidar3d in the robot file's units (m, rad).
 source "$(dirname "$0")/lib.bash" "$@"
@@ -11,9 +11,13 @@ check_written() {  # check_written INPUT.yaml WRITTEN.yaml RESULT.json SECTION..
 import json, re, sys
 src, out, result = open(sys.argv[1]).read(), open(sys.argv[2]).read(), json.load(open(sys.argv[3]))
 for line in src.splitlines():
-    if "#" in line and not line.startswith("# Calibrated by agvcal "):
+    if "#" in line and not line.startswith("# Calibrated by agvcal ") and "nominal values" not in line:
         assert line[line.index("#"):] in out, "comment lost: " + line
-assert len(out.splitlines()) <= len(src.splitlines()) + 6, "layout changed:\n" + out
+assert "nominal values" not in out, "the values are calibrated, not nominal:\n" + out
+# The header's provenance and fitted-fraction lines ("#   ...") come on top of the layout.
+header = sum(1 for line in out.splitlines() if line.startswith("#   "))
+assert header >= 8, "no provenance in the header:\n" + out
+assert len(out.splitlines()) - header <= len(src.splitlines()) + 6, "layout changed:\n" + out
 assert out.startswith("# Calibrated by agvcal "), out
 for section in sys.argv[4:]:
     for key, e in result[section].items():

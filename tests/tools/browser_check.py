@@ -2,6 +2,8 @@
 """Renders report pages (index.html of `agvcal diagnose|solve|ground|recal --report DIR`) in headless
 Chromium at 1024 px and fails on what a reader would see broken: a page wider than the window
 (document.documentElement.scrollWidth > 1024) or an image that does not load (naturalWidth 0).
+Without a browser too: each page opens with a verdict sentence and its provenance and shows no
+internal notes of the diagnosis (content_problems).
 With --screenshots OUT it also writes OUT/<name>.png of each page's top at 1024 px.
 Usage: browser_check.py [--screenshots OUT] NAME=DIR...
 Exit status: 0 every page fine; 1 a page is broken; 77 no Chromium (the test is skipped)."""
@@ -29,6 +31,32 @@ window.addEventListener('load', function () {
 });
 </script>
 """
+
+
+# The diagnosis's bookkeeping, which belongs in REPORT.json and --verbose, never on a page: the
+# actuation fit's log-SSE note, the region test's figures (zeros where it never ran), note lines.
+INTERNAL_NOTES = [r"log SSE", r"per correlation time", r"boxes of the route \(x 0 \.\. 0, y 0 \.\. 0", r"(^|\n)note: "]
+PROVENANCE_KEYS = ["command", "directory", "robot_name", "robot_file", "recording", "recording_sha256",
+                   "agvcal_version", "date"]
+
+
+def content_problems(name, html):
+    """What the page says, without a browser: a verdict sentence right under the title, the run's
+    provenance (enough to rerun the command on the same bytes), no internal notes."""
+    problems = []
+    if not re.search(r"</h1>\n<p class=\"verdict\">[^<]{30,}</p>", html):
+        problems.append(f"{name}: no verdict sentence under the title")
+    for key in PROVENANCE_KEYS:
+        if not re.search(r"<th>%s</th><td>[^<]+</td>" % key, html):
+            problems.append(f"{name}: provenance lacks {key}")
+    sha = re.search(r"<th>recording_sha256</th><td>([^<]*)</td>", html)
+    if sha and not re.fullmatch(r"[0-9a-f]{64}", sha.group(1)):
+        problems.append(f"{name}: recording_sha256 is {sha.group(1)!r}")
+    for pattern in INTERNAL_NOTES:
+        m = re.search(pattern, html)
+        if m:
+            problems.append(f"{name}: internal note on the page: ...{html[max(0, m.start() - 60):m.end() + 60]!r}...")
+    return problems
 
 
 def chromium():
@@ -93,11 +121,19 @@ def main(argv):
     if not pages or any(len(p) != 2 for p in pages):
         print(__doc__, file=sys.stderr)
         return 2
+    problems = []
+    for name, folder in pages:
+        page = os.path.join(folder, "index.html")
+        if os.path.exists(page):
+            problems += content_problems(name, open(page, encoding="utf-8").read())
     browser = chromium()
     if not browser:
+        if problems:
+            for p in problems:
+                print("FAIL " + p)
+            return 1
         print("SKIP: no chromium on PATH (scripts/setup.sh installs it; CI has it)")
         return 77
-    problems = []
     with tempfile.TemporaryDirectory() as profile:
         for name, folder in pages:
             problems += check(browser, name, folder, profile)

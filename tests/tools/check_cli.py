@@ -4,12 +4,13 @@
 Commands: every `agvcal` sub-command (the list `agvcal --help` prints) and every process
 (build/agvcal-NAME for each processes/NAME/*_main.cc). For each:
   - `--help` exits 0 with the help on stdout, starting with "usage: COMMAND";
-  - `--version` exits 0 and prints "COMMAND VERSION", VERSION being CMake's project version;
+  - `--version` exits 0 and prints "COMMAND VERSION", VERSION being CMake's project version and
+    `git describe` of the tree ("0.1.0 (git c7d975a-dirty)"; the build's, so build before checking);
   - an unknown option exits 2 with one line on stderr naming it;
   - every documented option exists and every option is documented.
 An option exists when `--help` lists it (the help is generated from the declared options).
 An option is documented when a command line shown for that command carries it: in README.md,
-docs/*.md and ../shared/spec/cli.md, a line of a fenced code block (joined across trailing
+docs/*.md and docs/spec/cli.md, a line of a fenced code block (joined across trailing
 backslashes) or an inline `code` span, from the command's name ("agvcal solve", "agvcal-sim",
 with or without "build/") up to a shell comment, a pipe, "&&", ";" or the next command. --help
 and --version are every command's, documented once in README.md.
@@ -79,6 +80,12 @@ def check_version_and_errors(name, argv, version):
     r = run(argv, "--version")
     if r.returncode != 0 or r.stdout != "%s %s\n" % (name, version):
         fail("%s --version: exit %d, %r (expected '%s %s')" % (name, r.returncode, r.stdout, name, version))
+
+
+def build_version(version):
+    """The project version and, in a git checkout, git describe of the tree (cmake/version.cmake)."""
+    r = subprocess.run(["git", "describe", "--always", "--dirty", "--tags"], cwd=SRC, capture_output=True, text=True)
+    return "%s (git %s)" % (version, r.stdout.strip()) if r.returncode == 0 and r.stdout.strip() else version
     r = run(argv, "--no-such-option")
     lines = r.stderr.splitlines()
     if r.returncode != 2 or len(lines) != 1 or "--no-such-option" not in lines[0] or not lines[0].startswith(name + ":"):
@@ -106,11 +113,7 @@ def shown_command_lines(text):
 def documented_options(names):
     """{command: {option: [doc files]}} from the command lines the docs show."""
     files = [os.path.join(SRC, "README.md")] + sorted(glob.glob(os.path.join(SRC, "docs", "*.md")))
-    spec = os.path.join(SRC, "..", "shared", "spec", "cli.md")
-    if os.path.exists(spec):
-        files.append(spec)
-    else:
-        print("note: %s not found, left out" % spec)
+    files.append(os.path.join(SRC, "docs", "spec", "cli.md"))
     command_re = re.compile(r"(?<![\w/.-])(?:build/)?(agvcal(?:-[a-z]+| [a-z]+)?)(?=\s|$)")
     documented = {}
     for path in files:
@@ -148,7 +151,7 @@ def check_trajectories():
 
 def main():
     with open(os.path.join(SRC, "CMakeLists.txt"), encoding="utf-8") as f:
-        version = re.search(r"project\(agvcal VERSION (\S+)", f.read()).group(1)
+        version = build_version(re.search(r"project\(agvcal VERSION (\S+)", f.read()).group(1))
     found = commands()
     documented = documented_options(set(found))
     for name, argv in sorted(found.items()):
@@ -161,7 +164,7 @@ def main():
             if option not in options:
                 fail("%s: %s shows %s, which --help does not list" % (name, ", ".join(sorted(where)), option))
         for option in sorted(options - GENERIC - set(shown)):
-            fail("%s: %s is not shown with the command in README.md, docs/*.md or spec/cli.md" % (name, option))
+            fail("%s: %s is not shown with the command in README.md, docs/*.md or docs/spec/cli.md" % (name, option))
         print("%-20s %2d options, %2d shown in the docs" % (name, len(options - GENERIC), len(shown)))
     check_trajectories()
     print("%d commands checked, %d problems" % (len(found), len(failures)))

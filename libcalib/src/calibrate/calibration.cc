@@ -103,6 +103,14 @@ Requirement RequirementFor(DriveType type, const std::string& name, double nomin
   return {0.05, "turn while driving: the sensor's position shows only when the robot rotates"};
 }
 
+}  // namespace
+
+std::string MotionThatDetermines(DriveType drive, const std::string& name) {
+  return RequirementFor(drive, name, 1.0).remedy;
+}
+
+namespace {
+
 // The model's error at `state` on each held-out interval, as steps to chain (heldout.h).
 std::vector<OdometryStep> HeldoutSteps(const std::vector<Interval>& intervals, const State& state) {
   std::vector<OdometryStep> steps;
@@ -263,19 +271,29 @@ std::vector<Estimate> EstimatesInOrder(const CalibrationResult& r) {
   return out;
 }
 
-// The held-out half's own fit against the fit half's `fit` (HalvesAgreement).
+// The held-out half's own fit against the fit half's `fit` (HalvesAgreement). Without it when
+// the held-out half cannot determine a value (`why_not` says which): a value a half cannot
+// determine would differ between the halves by chance alone.
 std::optional<HalvesAgreement> CompareHalves(const RobotDescription& robot, const WheelTrack& wheels,
                                              const std::vector<SensorMotion>& heldout_motions,
                                              MotionSource source, const CalibrationOptions& options,
-                                             const std::string& origin, const CalibrationResult& fit) {
+                                             const std::string& origin, const CalibrationResult& fit,
+                                             std::string* why_not) {
   CalibrationOptions alone = options;
   alone.fit_fraction = 1.0;
-  alone.check_observability = false;
+  alone.check_observability = true;
   CalibrationResult other;
+  const std::string half = origin + " (held-out half)";
   try {
-    other = Calibrate(robot, wheels, heldout_motions, source, alone, origin + " (held-out half)");
+    other = Calibrate(robot, wheels, heldout_motions, source, alone, half);
   } catch (const InputError&) {
     return std::nullopt;  // too few intervals
+  } catch (const UnobservableError& e) {
+    // "<origin>: the recording cannot determine X, Y; <remedy>": the values, without the remedy.
+    std::string what = e.what();
+    if (what.rfind(half + ": ", 0) == 0) what = what.substr(half.size() + 2);
+    *why_not = what.substr(0, what.find("; "));
+    return std::nullopt;
   }
   if (other.estimated_names != fit.estimated_names) return std::nullopt;
   const std::vector<Estimate> mine = EstimatesInOrder(fit), theirs = EstimatesInOrder(other);
@@ -650,7 +668,7 @@ CalibrationResult Conclude(const RobotDescription& robot, const WheelTrack& whee
     h.intervals = static_cast<int>(fit.intervals.size() - fit.num_fit);
     std::vector<SensorMotion> heldout_motions;
     for (std::size_t k = fit.num_fit; k < fit.usable.size(); ++k) heldout_motions.push_back(*fit.usable[k]);
-    h.halves = CompareHalves(robot, wheels, heldout_motions, source, options, origin, result);
+    h.halves = CompareHalves(robot, wheels, heldout_motions, source, options, origin, result, &h.halves_not_compared);
     result.heldout = h;
   }
   return std::move(result);

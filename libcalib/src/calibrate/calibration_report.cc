@@ -10,6 +10,7 @@
 
 #include "calib/core/se2.h"
 #include "calib/io/atomic_file.h"
+#include "calib/io/provenance.h"
 #include "calib/core/units.h"
 #include "io/report_page.h"
 #include "io/svg_plot.h"
@@ -65,7 +66,7 @@ std::vector<std::vector<std::string>> ParameterRows(const CalibrationResult& r) 
 }
 
 std::vector<std::string> ParameterHeader(const std::string& before) {
-  return {"value", "calibrated ± 1σ", "the same in", before, "change", "change / σ"};
+  return {"parameter", "calibrated ± 1σ", "the same in", before, "change", "change / σ"};
 }
 
 std::string ObservabilityText(const CalibrationResult& r) {
@@ -281,9 +282,43 @@ std::vector<std::vector<std::string>> InUseRows(const CalibrationInUse& start, c
 
 }  // namespace
 
+std::string SolveVerdict(const CalibrationResult& r) {
+  if (r.heldout && r.heldout->halves && r.heldout->halves->p < 0.01) {
+    const HalvesAgreement& a = *r.heldout->halves;
+    return "Check before writing the calibration: the fitted and the held-out part of the recording call for "
+           "different values (most apart: " + a.largest + ", " + PValueText(a.p) +
+           "), so the robot changed during the recording or the model leaves physics out: run agvcal diagnose.";
+  }
+  if (!r.weak.empty()) {
+    std::string names;
+    for (std::size_t i = 0; i < r.weak.size(); ++i) names += (i ? ", " : "") + r.weak[i];
+    return "Calibrated, but the recording determines " + names + " only weakly: to pin " +
+           (r.weak.size() > 1 ? "them" : "it") + " down, " + MotionThatDetermines(r.drive, r.weak.front()) +
+           ", and calibrate again before writing the calibration.";
+  }
+  if (!r.heldout)
+    return "Write the calibration (--write-robot): the recording determines every value; to check it on data the "
+           "fit does not see, run again with --fit-fraction 0.7.";
+  const HeldoutComparison& h = *r.heldout;
+  const std::string errors = FixedDecimals(h.nominal.error_per_metre * 1e3, 1) + " to " +
+                             FixedDecimals(h.calibrated.error_per_metre * 1e3, 1) + " mm per metre of path";
+  const int counted = h.paired.windows - h.paired.ties;
+  const bool significant = h.paired.sign_test_p < 0.05 && counted > 0;
+  if (significant && 2 * h.paired.second_better > counted)
+    return "Write the calibration (--write-robot): on the held-out part of the recording it cuts the odometry error "
+           "from " + errors + " (better in " + std::to_string(h.paired.second_better) + " of " +
+           std::to_string(counted) + " windows, sign test " + PValueText(h.paired.sign_test_p) + ").";
+  if (significant)
+    return "Keep the robot file's values: on the held-out part of the recording the calibration errs more (" +
+           errors + ", sign test " + PValueText(h.paired.sign_test_p) + "); run agvcal diagnose.";
+  return "The calibration is not measurably better than the robot file's values on the held-out part of the "
+         "recording (" + errors + ", sign test " + PValueText(h.paired.sign_test_p) +
+         "): record a longer run to tell, or write it if its changes matter to you.";
+}
+
 std::string SolveReportSummary(const CalibrationResult& r, const std::string& log_path) {
   std::ostringstream s;
-  s << "agvcal solve " << log_path << "\n"
+  s << SolveVerdict(r) << "\n\n"
     << DriveTypeName(r.drive) << " drive, motion measured by " << MotionSourceName(r.source) << ": "
     << r.residual.intervals << " intervals fitted, " << r.residual.outliers << " outliers set aside";
   if (r.heldout) s << ", " << r.heldout->intervals << " held out";
@@ -303,9 +338,11 @@ void WriteSolveReportDir(const RobotDescription& robot, const CalibrationResult&
                          int64_t t0, const std::string& dir) {
   MakeReportDir(dir);
   const std::string summary = SolveReportSummary(r, log_path);
-  WriteFileAtomically(dir + "/summary.txt", summary);
-  ReportPage page("agvcal solve: " + std::string(DriveTypeName(robot.drive)) + " drive");
-  page.Text(summary);
+  WriteFileAtomically(dir + "/summary.txt", WithProvenance(summary));
+  ReportPage page("agvcal solve: the calibration of " + (robot.name.empty() ? "the robot" : robot.name) + " (" +
+                  DriveTypeName(robot.drive) + " drive)");
+  page.Verdict(SolveVerdict(r));
+  page.Text(summary.substr(summary.find("\n\n") + 2));
   page.Paragraph(OriginText(t0));
   AddCalibration(r, t0, "robot file", dir, &page);
   WriteFileAtomically(dir + "/index.html", page.Render());
@@ -323,8 +360,15 @@ void WriteRecalReportDir(const CalibrationInUse& start, const RecalRun& run, con
     << run.waiting << " waiting for a decision), " << run.decisions.size() << " decisions.\n";
   for (const auto& row : DecisionRows(run, t0)) s << "decision " << row[0] << " at " << row[1] << ": " << row[2] << ": " << row.back() << "\n";
   s << "Calibration in use at the start: " << start.origin << "; at the end: " << run.in_use.origin << ".\n";
-  WriteFileAtomically(dir + "/summary.txt", s.str());
+  // What to act on: the calibration in use at the end, which the robot should run with.
+  const std::string verdict = run.in_use.origin == start.origin
+                                  ? "Keep the calibration in use: over " + std::to_string(run.decisions.size()) +
+                                        " decisions no candidate beat it on held-out data."
+                                  : "Use the calibration the run ended with (" + run.in_use.origin + "): it beat the "
+                                        "one in use at the start on held-out data.";
+  WriteFileAtomically(dir + "/summary.txt", WithProvenance(verdict + "\n\n" + s.str()));
   ReportPage page("agvcal recal: recalibration decisions");
+  page.Verdict(verdict);
   page.Text(s.str());
   page.Paragraph(OriginText(t0));
   page.Heading("Decisions");
@@ -332,7 +376,7 @@ void WriteRecalReportDir(const CalibrationInUse& start, const RecalRun& run, con
               "consistency with the calibration in use", "reason"},
              DecisionRows(run, t0));
   page.Heading("Calibration in use");
-  page.Table({"value", "at the start ± 1σ", "at the end ± 1σ", "unit"}, InUseRows(start, run.in_use));
+  page.Table({"parameter", "at the start ± 1σ", "at the end ± 1σ", "unit"}, InUseRows(start, run.in_use));
   if (!run.decisions.empty()) {
     WriteFileAtomically(dir + "/heldout_segments.svg", RecalHeldoutPlot(run, t0));
     page.Figure("heldout_segments.svg", "Each decision's held-out segments: the calibration in use against the candidate");

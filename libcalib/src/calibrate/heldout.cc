@@ -97,15 +97,26 @@ OdometryError OdometryErrorOverPath(const std::vector<OdometryStep>& steps, doub
 }
 
 double PathWindowLength(const std::vector<OdometryStep>& steps, int min_windows) {
-  double path = 0.0;
-  for (const OdometryStep& s : steps) path += std::hypot(s.measured.x, s.measured.y);
+  double path = 0.0, longest_step = 0.0;
+  for (const OdometryStep& s : steps) {
+    const double d = std::hypot(s.measured.x, s.measured.y);
+    path += d;
+    longest_step = std::max(longest_step, d);
+  }
+  // Short of the count, the most windows no shorter than the longest step: shorter ones would
+  // win only by making a window of a step where the robot barely moved, and every window would
+  // then hold far more path than the length says.
   double best = path;
   int best_count = 0;
+  const auto most = [&](double length, int count) {
+    if (length >= longest_step && count > best_count) best = length, best_count = count;
+  };
   for (double length = path; length > 1e-4 * path; length *= 0.95) {
     const int count = OdometryErrorOverPath(steps, length).windows;
     if (count >= min_windows) return length;
-    if (count > best_count) best = length, best_count = count;
+    most(length, count);
   }
+  most(longest_step, OdometryErrorOverPath(steps, longest_step).windows);
   return best;
 }
 

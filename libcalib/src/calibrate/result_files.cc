@@ -8,6 +8,8 @@
 #include "calib/calibrate/heldout.h"
 #include "calib/core/robot_file_edit.h"
 #include "calib/core/statistics.h"
+#include "calib/core/units.h"
+#include "io/provenance_json.h"
 
 namespace calib {
 namespace {
@@ -104,8 +106,11 @@ std::string CalibrationResultJson(const CalibrationResult& r) {
                                 {"largest", halves->largest},
                                 {"largest_sigmas", halves->largest_sigmas},
                                 {"heldout_fit", fit}};
+    } else if (!r.heldout->halves_not_compared.empty()) {
+      j["heldout"]["halves_not_compared"] = r.heldout->halves_not_compared;
     }
   }
+  AddProvenance(&j);
   return j.dump(2) + "\n";
 }
 
@@ -131,7 +136,14 @@ std::string CalibratedRobotYaml(const RobotDescription& robot, const Calibration
     values.push_back({mount + ".y", r.mount_y.value, r.mount_y.std});
     values.push_back({mount + ".yaw", r.mount_yaw.value, r.mount_yaw.std});
   }
-  return WriteCalibratedRobotFile(robot.source_file, values, command, log_path);
+  // How much of the recording the values stand on: the rest, held out, only checked them.
+  const int fitted = r.residual.intervals, held_out = r.heldout ? r.heldout->intervals : 0;
+  std::string fraction = "fitted on all " + std::to_string(fitted) + " usable intervals of the recording";
+  if (held_out > 0)
+    fraction = "fitted on the first " + std::to_string(fitted) + " of " + std::to_string(fitted + held_out) +
+               " usable intervals (" + FixedDecimals(100.0 * fitted / (fitted + held_out), 0) +
+               " %); the other " + std::to_string(held_out) + " held out to check them";
+  return WriteCalibratedRobotFile(robot.source_file, values, command, log_path, ProvenanceText() + fraction);
 }
 
 }  // namespace calib

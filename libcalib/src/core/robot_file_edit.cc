@@ -168,8 +168,15 @@ std::string SetYamlScalar(const std::string& text, const std::string& origin, co
 
 std::string WriteCalibratedValues(const std::string& text, const std::string& origin,
                                   const std::vector<RobotFileValue>& values, const std::string& command,
-                                  const std::string& source) {
+                                  const std::string& source, const std::string& details) {
   std::string out = text;
+  // The robot file's note that its values are nominal is no longer true of calibrated ones.
+  const std::string nominal_note = "# nominal values; calibration starts here";
+  if (const std::size_t at = out.find(nominal_note); at != std::string::npos) {
+    std::size_t start = at;
+    while (start > 0 && (out[start - 1] == ' ' || out[start - 1] == '\t')) --start;
+    out.erase(start, at + nominal_note.size() - start);
+  }
   for (const RobotFileValue& v : values)
     out = SetYamlScalar(out, origin, v.path, RoundedToSigma(v.value, v.std, v.significant));
   for (const RobotFileValue& v : values) {
@@ -178,14 +185,24 @@ std::string WriteCalibratedValues(const std::string& text, const std::string& or
   YAML::Emitter quoted;
   quoted << source;
   out = SetYamlScalar(out, origin, "source", quoted.c_str());
-  const std::string header = "# Calibrated by agvcal " + command + " from " + source + "\n";
-  if (out.rfind("# Calibrated by agvcal ", 0) == 0) out.erase(0, out.find('\n') + 1);
+  std::string header = "# Calibrated by agvcal " + command + " from " + source + "\n";
+  for (std::size_t line = 0; line < details.size();) {
+    const std::size_t end = std::min(details.find('\n', line), details.size());
+    header += "#   " + details.substr(line, end - line) + "\n";
+    line = end + 1;
+  }
+  // An earlier header (its first line and its indented lines) is replaced.
+  if (out.rfind("# Calibrated by agvcal ", 0) == 0) {
+    out.erase(0, out.find('\n') + 1);
+    while (out.rfind("#   ", 0) == 0) out.erase(0, out.find('\n') == std::string::npos ? out.size() : out.find('\n') + 1);
+  }
   return header + out;
 }
 
 std::string WriteCalibratedRobotFile(const std::string& path, const std::vector<RobotFileValue>& values,
-                                     const std::string& command, const std::string& source) {
-  return WriteCalibratedValues(yaml::ReadTextFile(path, "robot file"), path, values, command, source);
+                                     const std::string& command, const std::string& source,
+                                     const std::string& details) {
+  return WriteCalibratedValues(yaml::ReadTextFile(path, "robot file"), path, values, command, source, details);
 }
 
 }  // namespace calib

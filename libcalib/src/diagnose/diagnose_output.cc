@@ -10,6 +10,7 @@
 #include "calib/calibrate/heldout.h"
 #include "calib/core/units.h"
 #include "calib/diagnose/diagnose.h"
+#include "io/provenance_json.h"
 
 namespace calib {
 namespace {
@@ -49,6 +50,19 @@ std::string BeforeAfter(double before, double after, const std::string& unit) {
 }
 
 }  // namespace
+
+// A candidate's note without the clause of the test over boxes of the route (diagnose_region.cc),
+// which is bookkeeping of a test that did not name it (and zeros where it did not run).
+std::string CandidateNoteInWords(const std::string& note) {
+  const std::string clause = "not confined to a region either";
+  const std::size_t at = note.find(clause);
+  if (at == std::string::npos) return note;
+  std::size_t start = at;
+  while (start > 0 && (note[start - 1] == ' ' || note[start - 1] == ';')) --start;
+  const std::size_t next = note.find("; ", at);  // the clause holds no other semicolon
+  if (next == std::string::npos) return note.substr(0, start);
+  return start == 0 ? note.substr(next + 2) : note.substr(0, start) + note.substr(next);
+}
 
 std::string SpanTimes(const std::vector<TimeSpan>& spans, int64_t origin, std::size_t shown) {
   std::string text;
@@ -221,13 +235,48 @@ std::string DiagnoseReportJson(const DiagnoseReport& r) {
                               {"x", m.x}, {"y", m.y}}}});
   }
   j["intervals"] = iv;
+  AddProvenance(&j);
   return j.dump(1) + "\n";
 }
 
-std::string DiagnoseSummaryText(const DiagnoseReport& r) {
+std::string DiagnoseVerdict(const DiagnoseReport& r) {
+  std::string verdict;
+  if (!r.effects.empty()) {
+    const FoundEffect& e = r.effects.front();
+    const auto offset = e.params.find("offset_s");
+    if (e.name == "time_offset" && offset != e.params.end()) {
+      verdict = "The sensor's stamps and the wheels' are " + FixedDecimals(std::abs(offset->second.value) * 1e3, 0) +
+                " ms apart (± " + FixedDecimals(offset->second.std * 1e3, 0) +
+                " ms): fix the stamps, or let agvcal model it (agvcal solve --time-offset).";
+    } else {
+      std::string size;
+      for (const auto& [k, v] : e.params) size += (size.empty() ? "" : ", ") + k + " = " + EstimateText(v.value, v.std, ParamUnit(k));
+      verdict = "The calibrated model leaves out " + e.name + (e.wheel.empty() ? "" : " (wheel " + e.wheel + ")") +
+                " (" + size + ", " + PValueText(e.p_adjusted) + "; modelled, the held-out residual where it acts is " +
+                Percent(e.heldout_rms_before, e.heldout_rms_after) + " lower): fix its cause on the robot, or model it "
+                "(docs/spec/effects.md).";
+    }
+    if (r.effects.size() > 1)
+      verdict += " " + std::to_string(r.effects.size() - 1) + " more effect" + (r.effects.size() > 2 ? "s" : "") +
+                 " below.";
+  } else if (!r.unexplained.empty()) {
+    verdict = "The residual holds structure no catalogued effect explains (UNEXPLAINED below): find its cause before "
+              "trusting the calibration's sigmas.";
+  } else {
+    verdict = "Nothing missing: the calibrated model explains this recording within its noise; keep the calibration.";
+  }
+  if (!r.indistinguishable.empty()) {
+    const Indistinguishable& d = r.indistinguishable.front();
+    verdict += " " + d.first + " and " + d.second + " cannot be told apart here: to tell them apart, drive " +
+               d.motion + ".";
+  }
+  return verdict;
+}
+
+std::string DiagnoseSummaryText(const DiagnoseReport& r, bool verbose) {
   std::ostringstream s;
   s.precision(4);
-  s << DriveTypeName(r.drive) << " drive: " << r.fit_intervals << " intervals fitted, " << r.heldout_intervals
+  s << DiagnoseVerdict(r) << "\n\n" << DriveTypeName(r.drive) << " drive: " << r.fit_intervals << " intervals fitted, " << r.heldout_intervals
     << " held out (alternating blocks), " << r.outliers << " outliers set aside.\n";
   if (r.outlier_correlation.empty()) {
     s << "Set aside: " << 100.0 * r.outlier_share << " % of all intervals.\n";
@@ -325,17 +374,26 @@ std::string DiagnoseSummaryText(const DiagnoseReport& r) {
   }
   header = false;
   // Candidates significant by their Wald statistic but not found: the look-alikes rejected,
-  // and where the Wald test and the BIC gate or held-out proof disagree, why.
+  // and where the Wald test and the BIC gate or held-out proof disagree, why. Without
+  // `verbose`, in words only: the status tokens and statistics, and the region test's
+  // bookkeeping, are REPORT.json's (candidates[]).
   for (const CandidateOutcome& c : r.candidates) {
     if (c.status == CandidateStatus::kFound || c.status == CandidateStatus::kIndistinguishable || c.note.empty() ||
         c.status == CandidateStatus::kNotIdentifiable)
       continue;
-    if (!header) s << "\nRejected look-alikes and disagreeing tests:\n";
+    const std::string why = verbose ? c.note : CandidateNoteInWords(c.note);
+    if (why.empty()) continue;
+    if (!header) s << (verbose ? "\nRejected look-alikes and disagreeing tests:\n" : "\nTested and not named:\n");
     const std::string unit = ParamUnit(EffectSizeKey(c.name));
     header = true;
-    s << "  " << c.name << (c.wheel.empty() ? "" : " (" + c.wheel + ")") << " " << CandidateStatusName(c.status)
-      << ": estimate " << EstimateText(c.estimate.value, c.estimate.std, unit) << ", " << PValueText(c.p_adjusted)
-      << ", delta BIC " << c.delta_bic << ", detectable " << QuantityText(c.detectable, unit, 3) << "; " << c.note << "\n";
+    const std::string name = c.name + (c.wheel.empty() ? "" : " (" + c.wheel + ")");
+    if (!verbose) {
+      s << "  " << name << " " << EstimateText(c.estimate.value, c.estimate.std, unit) << ": " << why << "\n";
+      continue;
+    }
+    s << "  " << name << " " << CandidateStatusName(c.status) << ": estimate "
+      << EstimateText(c.estimate.value, c.estimate.std, unit) << ", " << PValueText(c.p_adjusted) << ", delta BIC "
+      << c.delta_bic << ", detectable " << QuantityText(c.detectable, unit, 3) << "; " << c.note << "\n";
   }
   header = false;
   for (const CandidateOutcome& c : r.candidates) {
@@ -358,7 +416,8 @@ std::string DiagnoseSummaryText(const DiagnoseReport& r) {
     s << "Held-out dead reckoning over " << da.windows << " windows: translation "
       << BeforeAfter(db.rms_translation_m, da.rms_translation_m, "m") << ", heading "
       << BeforeAfter(db.rms_heading_rad, da.rms_heading_rad, "rad") << "\n";
-  for (const std::string& n : r.notes) s << "note: " << n << "\n";
+  if (verbose)
+    for (const std::string& n : r.notes) s << "note: " << n << "\n";
   for (const std::string& w : r.warnings) s << "warning: " << w << "\n";
   return s.str();
 }

@@ -12,6 +12,7 @@
 #include "calib/core/units.h"
 #include "io/report_page.h"
 #include "io/svg_plot.h"
+#include "calib/io/provenance.h"
 
 namespace calib {
 namespace {
@@ -179,7 +180,7 @@ std::vector<std::vector<std::string>> CandidateRows(const DiagnoseReport& r) {
   std::vector<std::vector<std::string>> rows;
   for (const CandidateOutcome& c : r.candidates) {
     const std::string unit = ParamUnit(EffectSizeKey(c.name));
-    std::string reason = c.note;
+    std::string reason = CandidateNoteInWords(c.note);
     if (reason.empty() && c.status == CandidateStatus::kFound) reason = "significant and proven on held-out data";
     if (reason.empty() && c.status == CandidateStatus::kNotSignificant) reason = "not beyond the false-alarm level";
     rows.push_back({c.name + (c.wheel.empty() ? "" : " (" + c.wheel + ")"), c.layer, CandidateStatusName(c.status),
@@ -241,7 +242,7 @@ void AddTables(const DiagnoseReport& r, const Clock& sec, ReportPage* page) {
   page->Heading("Calibration");
   page->Paragraph("Baseline: the calibrated model fitted on the fit blocks without any effect; refitted: jointly "
                   "with the effects found.");
-  page->Table({"value", "baseline ± 1σ", "refitted with the effects ± 1σ"}, CalibrationRows(r));
+  page->Table({"parameter", "baseline ± 1σ", "refitted with the effects ± 1σ"}, CalibrationRows(r));
 }
 
 }  // namespace
@@ -249,10 +250,14 @@ void AddTables(const DiagnoseReport& r, const Clock& sec, ReportPage* page) {
 void WriteDiagnoseReportDir(const DiagnoseReport& r, const std::string& dir) {
   MakeReportDir(dir);
   const Clock sec{ReportTimeOrigin(r)};
-  ReportPage page("agvcal diagnose: " + r.verdict);
+  ReportPage page(std::string("agvcal diagnose: ") +
+                  (!r.effects.empty()       ? "missing physics found"
+                   : r.unexplained.empty() ? "no missing physics found"
+                                           : "residual structure no catalogued effect explains"));
   const std::string summary = DiagnoseSummaryText(r);
-  WriteFileAtomically(dir + "/summary.txt", summary);
-  page.Text(summary);
+  WriteFileAtomically(dir + "/summary.txt", WithProvenance(summary));
+  page.Verdict(DiagnoseVerdict(r));
+  page.Text(summary.substr(summary.find("\n\n") + 2));
   page.Paragraph("Times are seconds since the recording's first message (utime " + std::to_string(sec.t0) + ").");
   AddTables(r, sec, &page);
   page.Heading("Plots");

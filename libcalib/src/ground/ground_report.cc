@@ -8,6 +8,7 @@
 #include "calib/ground/ground.h"
 #include "calib/ground/ground_session.h"
 #include "calib/io/atomic_file.h"
+#include "calib/io/provenance.h"
 #include "io/report_page.h"
 #include "io/svg_plot.h"
 
@@ -102,13 +103,18 @@ void WriteGroundReportDir(const RobotDescription& robot, const GroundResult& r, 
                           const std::string& dir) {
   MakeReportDir(dir);
   const std::string summary = GroundResultText(r, input);
-  WriteFileAtomically(dir + "/summary.txt", summary);
-  ReportPage page("agvcal ground: the 3D lidar above the floor");
-  page.Text(summary);
   const MountEstimate& e = r.lidar3d;
+  const std::string verdict = "Write the mount (--write-robot): the floor puts the 3D lidar " +
+                              MillimetresText(e.value.z, 1) + " above it (± " + MillimetresText(e.std.z, 1) +
+                              "), pitched " + AngleText(e.value.pitch) + " and rolled " + AngleText(e.value.roll) +
+                              ", from " + std::to_string(e.frames) + " frames.";
+  WriteFileAtomically(dir + "/summary.txt", WithProvenance(verdict + "\n\n" + summary));
+  ReportPage page("agvcal ground: the 3D lidar above the floor");
+  page.Verdict(verdict);
+  page.Text(summary);
   const Mount3d nominal = robot.lidar3d.value_or(Mount3d{});
   page.Heading("Mount");
-  page.Table({"value", "calibrated ± 1σ", "the same in", "nominal (robot file)", "change"},
+  page.Table({"parameter", "calibrated ± 1σ", "the same in", "nominal (robot file)", "change"},
              {MountRow("lidar3d.z", e.value.z, e.std.z, nominal.z, false),
               MountRow("lidar3d.pitch", e.value.pitch, e.std.pitch, nominal.pitch, true),
               MountRow("lidar3d.roll", e.value.roll, e.std.roll, nominal.roll, true)});

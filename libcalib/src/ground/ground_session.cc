@@ -12,6 +12,7 @@
 #include "calib/core/units.h"
 #include "calib/io/cloud_file.h"
 #include "calib/io/message_source.h"
+#include "io/provenance_json.h"
 
 namespace calib {
 
@@ -182,6 +183,7 @@ std::string GroundResultJson(const GroundResult& result, const GroundInput& inpu
     out["sectors"] = sectors;
   }
   out["source"] = {{"path", input.path}, {"kind", input.kind}, {"clouds", input.clouds}};
+  AddProvenance(&out);
   return out.dump(2) + "\n";
 }
 
@@ -237,7 +239,8 @@ std::string GroundCalibratedRobotYaml(const RobotDescription& robot, const Groun
                                   {{"lidar3d.z", e.value.z, e.std.z},
                                    {"lidar3d.pitch", e.value.pitch, e.std.pitch},
                                    {"lidar3d.roll", e.value.roll, e.std.roll}},
-                                  "ground", source);
+                                  "ground", source,
+                                  ProvenanceText() + std::to_string(e.frames) + " frames of the recording combined");
 }
 
 }  // namespace calib

@@ -1,5 +1,7 @@
 #include "io/report_page.h"
 
+#include "calib/io/provenance.h"
+
 
 namespace calib {
 namespace {
@@ -17,7 +19,10 @@ const char* kStyle =
     "th,td{border:1px solid #ccc;padding:3px 6px;text-align:left;vertical-align:top}"
     "th{background:#f0f0f0}"
     "figure{margin:14px 0}figure img{max-width:100%;height:auto;display:block;border:1px solid #eee}"
-    "figcaption{font-size:13px;color:#444}";
+    "figcaption{font-size:13px;color:#444}"
+    ".verdict{font-size:1.1em;font-weight:bold;padding:8px;border-left:4px solid #2a6;background:#f3faf5}"
+    ".provenance td,.provenance th{font-size:12px;font-family:monospace;overflow-wrap:anywhere}"
+    ".provenance th{white-space:nowrap;width:1%}";
 
 }  // namespace
 
@@ -34,6 +39,8 @@ std::string HtmlEscape(const std::string& text) {
 }
 
 ReportPage::ReportPage(std::string title) : title_(std::move(title)) {}
+
+void ReportPage::Verdict(const std::string& sentence) { verdict_ = sentence; }
 
 void ReportPage::Heading(const std::string& text) { body_ += "<h2>" + HtmlEscape(text) + "</h2>\n"; }
 
@@ -59,10 +66,18 @@ void ReportPage::Figure(const std::string& file, const std::string& caption) {
 }
 
 std::string ReportPage::Render() const {
+  std::string top;
+  if (!verdict_.empty()) top += "<p class=\"verdict\">" + HtmlEscape(verdict_) + "</p>\n";
+  if (const Provenance* p = RunProvenance()) {
+    top += "<div class=\"tablewrap provenance\"><table>\n";
+    for (const auto& [key, value] : ProvenanceFields(*p))
+      top += "<tr><th>" + HtmlEscape(key) + "</th><td>" + HtmlEscape(value) + "</td></tr>\n";
+    top += "</table></div>\n";
+  }
   return "<!DOCTYPE html>\n<html lang=\"en\"><head><meta charset=\"utf-8\">"
          "<meta name=\"viewport\" content=\"width=device-width, initial-scale=1\"><title>" +
          HtmlEscape(title_) + "</title><style>" + kStyle + "</style></head>\n<body>\n<h1>" + HtmlEscape(title_) +
-         "</h1>\n" + body_ + "</body></html>\n";
+         "</h1>\n" + top + body_ + "</body></html>\n";
 }
 
 }  // namespace calib

@@ -13,6 +13,9 @@ std::string HtmlEscape(const std::string& text);
 class ReportPage {
  public:
   explicit ReportPage(std::string title);
+  // The one sentence a person acts on (what was found, how sure, what to do next): first on the
+  // page, above the run's provenance (calib/io/provenance.h) and the body.
+  void Verdict(const std::string& sentence);
   void Heading(const std::string& text);    // a section
   void Paragraph(const std::string& text);  // wrapped
   void Text(const std::string& lines);      // line breaks kept, long lines wrapped
@@ -22,6 +25,7 @@ class ReportPage {
 
  private:
   std::string title_;
+  std::string verdict_;
   std::string body_;
 };
 

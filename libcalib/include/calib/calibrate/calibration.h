@@ -135,6 +135,10 @@ OdometryError EvaluateOdometry(const RobotDescription& robot, MotionSource sourc
                                const WheelTrack& wheels, const std::vector<SensorMotion>& motions,
                                double window_s);
 
+// The motion a recording needs for the data to determine `name` (a drive parameter, a mount
+// value, "time_offset"): what to record when it is weak or undetermined.
+std::string MotionThatDetermines(DriveType drive, const std::string& name);
+
 // The robot description with the calibrated values in place of the nominal ones.
 RobotDescription Calibrated(const RobotDescription& robot, const CalibrationResult& result);
 

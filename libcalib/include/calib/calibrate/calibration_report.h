@@ -15,7 +15,12 @@
 
 namespace calib {
 
-// The text of summary.txt (also the top of index.html).
+// One sentence a person acts on: whether to write the calibration, what to record when the data
+// fall short, or to diagnose when the recording's parts disagree; first on the console, the
+// page and summary.txt.
+std::string SolveVerdict(const CalibrationResult& result);
+
+// The text of summary.txt (also the top of index.html): the verdict, then the figures.
 std::string SolveReportSummary(const CalibrationResult& result, const std::string& log_path);
 
 void WriteSolveReportDir(const RobotDescription& robot, const CalibrationResult& result,

@@ -62,8 +62,8 @@ OdometryError OdometryErrorOverWindows(const std::vector<OdometryStep>& steps, d
 OdometryError OdometryErrorOverPath(const std::vector<OdometryStep>& steps, double window_m);
 
 // The longest path window (among the path's length times 0.95^k) that gives at least
-// `min_windows` windows of `steps` (OdometryErrorOverPath's rule); the one with the most windows
-// when none does. It depends on the measured motions and their gaps only, not on a model.
+// `min_windows` windows of `steps` (OdometryErrorOverPath's rule). When none does, the longest
+// with the most windows among the lengths no shorter than the longest step (and that step's length). It depends on the measured motions and their gaps only, not on a model.
 double PathWindowLength(const std::vector<OdometryStep>& steps, int min_windows);
 
 // The two models' end translation errors window by window (ComparePaired of statistics.h).
@@ -112,8 +112,11 @@ struct HeldoutComparison {
   // The same over the windows without an interval outside the fit half's range: how the
   // models compare where the calibration did not extrapolate.
   PairedComparison paired_within_fit_range;
-  // Absent when the held-out half alone cannot determine every value.
+  // Absent when the held-out half alone cannot determine every value (or has too few intervals).
   std::optional<HalvesAgreement> halves;
+  // Why the halves were not compared when the held-out half cannot determine a value:
+  // "the recording cannot determine track" (empty otherwise).
+  std::string halves_not_compared;
 };
 
 // The comparison of the nominal and the calibrated model's `nominal` and `calibrated` steps

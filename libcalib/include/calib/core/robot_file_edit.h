@@ -21,15 +21,19 @@ struct RobotFileValue {
 
 // The robot file `text` with `values` written in place, their stds under `std:` (merged with
 // those already there), `source` under `source:`, and a first comment line "# Calibrated by
-// agvcal <command> from <source>" (replacing such a line if the file has one). `origin` names
-// the file in errors (the text must be one YAML map, as LoadRobotFile checked).
+// agvcal <command> from <source>" followed by `details` (lines: what produced it, how much of the
+// recording was fitted), each as a comment "#   ..." (replacing such a header if the file has
+// one). The robot file's comment "# nominal values; calibration starts here" is dropped: the
+// values are no longer nominal. `origin` names the file in errors (the text must be one YAML
+// map, as LoadRobotFile checked).
 std::string WriteCalibratedValues(const std::string& text, const std::string& origin,
                                   const std::vector<RobotFileValue>& values, const std::string& command,
-                                  const std::string& source);
+                                  const std::string& source, const std::string& details = "");
 
 // The same for the robot file at `path` (InputError if it cannot be read).
 std::string WriteCalibratedRobotFile(const std::string& path, const std::vector<RobotFileValue>& values,
-                                     const std::string& command, const std::string& source);
+                                     const std::string& command, const std::string& source,
+                                     const std::string& details = "");
 
 // Sets the scalar at the dotted `path` of YAML `text` to `value_text` (already formatted), in
 // place; missing maps on the way are created. Exposed for tests.

@@ -338,12 +338,22 @@ DiagnoseReport DiagnoseLog(const RobotDescription& robot, const std::string& log
 int64_t ReportTimeOrigin(const DiagnoseReport& report);
 // "12.3–15.0 s, 40.1–44.0 s, … (9 spans)": the first `shown` spans in seconds since `origin`
 // (summary.txt and the report page alike).
+// A candidate's note without the figures of the test over boxes of the route that did not name it
+// (REPORT.json keeps them): what the summary and the page say of it.
+std::string CandidateNoteInWords(const std::string& note);
+
 std::string SpanTimes(const std::vector<TimeSpan>& spans, int64_t origin, std::size_t shown = 6);
 
 std::string DiagnoseReportJson(const DiagnoseReport& report);
 
-// Plain-words summary: what physics was missing, how large, how much better.
-std::string DiagnoseSummaryText(const DiagnoseReport& report);
+// One sentence a person acts on: what is missing from the model, how sure, what to do about it
+// (the first line of the summary, the top of the page).
+std::string DiagnoseVerdict(const DiagnoseReport& report);
+
+// Plain-words summary: the verdict, then what physics was missing, how large, how much better. `verbose` adds the
+// diagnosis's own bookkeeping (REPORT.json `notes`, the status and statistics of the candidates
+// tested and not named, the region test's figures); the console shows it with --verbose only.
+std::string DiagnoseSummaryText(const DiagnoseReport& report, bool verbose = false);
 
 // The human report: summary.txt and SVG plots in `dir` (created if needed).
 void WriteDiagnoseReportDir(const DiagnoseReport& report, const std::string& dir);
