@@ -85,7 +85,15 @@ if [ -f "$mines" ]; then
   done
   stderr_has "tf_static base_link -> laser: x 0.1450 y 0.0000 z 0.3000 m"
   expect_status 0 "solve the direct import" "$AGVCAL" solve "$robot" "$TMP/direct.log" --quiet --out "$TMP/direct.json"
-  expect_status 0 "solve the MCAP import" "$AGVCAL" solve "$robot" "$TMP/bag.log" --quiet --out "$TMP/bag.json"
+  expect_status 0 "solve the bag's import, writing the ROS files" "$AGVCAL" solve "$robot" "$TMP/bag.log" \
+    --quiet --out "$TMP/bag.json" --write-urdf "$TMP/lidar.urdf" --write-tf "$TMP/tf.launch.xml" \
+    --write-controller "$TMP/controller.yaml" --lidar-frame hokuyo_link
+  "$BUILD/tests/urdf_joint_origin" "$TMP/lidar.urdf" hokuyo_link_joint >"$TMP/lidar.urdf.origin" ||
+    fail "liburdfdom does not read the URDF: $(cat "$TMP/lidar.urdf")"
+  if /usr/bin/python3 tests/ros/check_ros_results.py "$TMP/bag.json" "$TMP/controller.yaml" "$TMP/bag.log" \
+      "$TMP/lidar.urdf" "$TMP/tf.launch.xml" hokuyo_link; then
+    pass "URDF (liburdfdom), static tf launch and diff_drive_controller parameters hold RESULT.json's values"
+  else fail "the ROS files disagree with RESULT.json"; fi
   # The recording's own name is in the result; every number must agree.
   if diff <(grep -v '"log"' "$TMP/direct.json") <(grep -v '"log"' "$TMP/bag.json") >/dev/null; then
     pass "same calibration from the bag as from the direct import"
@@ -116,12 +124,20 @@ if [ -f "$run" ]; then
     format=rosbag2; [[ $bag == *.bag ]] && format=rosbag
     expect_status 0 "import $format $bag (tricycle, Odometry)" "$AGVCAL" import $format "$TMP/$bag" "$TMP/tri-bag.log" --robot "$robot3"
     stderr_has "WHEELS: "; stderr_has "POSE: "
-    expect_status 0 "solve the import of $bag" "$AGVCAL" solve "$robot3" "$TMP/tri-bag.log" --source pose --quiet --out "$TMP/tri-bag.json"
+    expect_status 0 "solve the import of $bag" "$AGVCAL" solve "$robot3" "$TMP/tri-bag.log" --source pose --quiet \
+      --out "$TMP/tri-bag.json" --write-controller "$TMP/tricycle_controller.yaml"
+    if /usr/bin/python3 tests/ros/check_ros_results.py "$TMP/tri-bag.json" "$TMP/tricycle_controller.yaml" "$TMP/tri-bag.log"; then
+      pass "$bag: tricycle_controller parameters hold RESULT.json's values"
+    else fail "$bag: tricycle_controller parameters disagree with RESULT.json"; fi
     # The heading goes through a quaternion: equal to the last bits, not bit for bit.
     if python3 tests/ros/same_numbers.py "$TMP/tri.json" "$TMP/tri-bag.json" 1e-9; then
       pass "$bag: same calibration (1e-9 relative) from the steering joint and the odometry"
     else fail "$bag: tricycle calibrations differ"; fi
   done
+  expect_status 2 "--write-urdf without a lidar" "$AGVCAL" solve "$robot3" "$TMP/tri.log" --source pose --quiet \
+    --write-urdf "$TMP/none.urdf"
+  stderr_has "--write-urdf: needs the 2D lidar's mount"
+  if [ -e "$TMP/none.urdf" ]; then fail "a URDF was written"; else pass "no URDF written"; fi
 else
   echo "SKIP tricycle checks: no $run"
 fi
