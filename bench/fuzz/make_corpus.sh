@@ -63,9 +63,10 @@ if [ -d "$writers/node_modules/@mcap/core" ]; then
   lcm-gen -p --ppath "$tmp" "$here"/lcmtypes/*.lcm >/dev/null
   ln -s "$writers/node_modules" "$tmp/node_modules"   # an ES module finds its packages beside it
   cp "$here/tests/ros/write_bags.mjs" "$tmp/"
-  python3 "$here/tests/ros/log_to_json.py" "$tmp" "$here/logs/diff_robot_demo.log" | head -12 > "$tmp/m.jsonl"
+  python3 "$here/tests/ros/log_to_json.py" "$tmp" "$here/logs/diff_robot_demo.log" | head -60 > "$tmp/m.jsonl"
   echo '{"wheel_joints": {"left_wheel": "left_wheel_joint", "right_wheel": "right_wheel_joint"},
-         "scan_frame": "laser", "lidar2d": {"x": 0.2, "y": 0, "yaw": 0}}' > "$tmp/map.json"
+         "scan_frame": "laser", "lidar2d": {"x": 0.2, "y": 0, "yaw": 0}, "imu_topic": "/imu/data"}' \
+    > "$tmp/map.json"
   for c in zstd lz4 none; do
     node "$tmp/write_bags.mjs" "$tmp/m.jsonl" "$tmp/map.json" \
       "$corpus/mcap/diff_robot_$c.mcap" "$c"

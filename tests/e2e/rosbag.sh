@@ -141,4 +141,19 @@ if [ -f "$run" ]; then
 else
   echo "SKIP tricycle checks: no $run"
 fi
+# IMU and drive commands: the simulated sample has them (and no real dataset does).
+robot=config/robots/ros/diff_robot.yaml
+echo '{"wheel_joints": {"left_wheel": "left_wheel_joint", "right_wheel": "right_wheel_joint"},
+       "scan_frame": "laser", "lidar2d": {"x": 0.2, "y": 0, "yaw": 0}, "imu_topic": "/imu/data"}' >"$mapping"
+bags logs/diff_robot_demo.log demo
+for bag in demo-lz4.mcap demo.bag; do
+  format=rosbag2; [[ $bag == *.bag ]] && format=rosbag
+  expect_status 0 "import $format $bag (IMU, TwistStamped)" "$AGVCAL" import $format "$TMP/$bag" "$TMP/demo.log" --robot "$robot"
+  stderr_has "IMU: 5151 messages"; stderr_has "DRIVE_CMD: 495 messages"
+  stderr_has "(the scan's frame; robot file lidar2d: x 0.2000 y 0.0000 yaw 0.00000)"
+  python3 tests/ros/log_to_json.py "$TMP/lcmpy" "$TMP/demo.log" >"$TMP/demo-bag.jsonl"
+  if python3 tests/ros/same_messages.py "$TMP/demo.jsonl" "$TMP/demo-bag.jsonl" WHEELS SCAN IMU DRIVE_CMD; then
+    pass "$bag: WHEELS, SCAN, IMU and DRIVE_CMD (body twists) as the sample has them"
+  else fail "$bag: messages differ from the sample's"; fi
+done
 finish

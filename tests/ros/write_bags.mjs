@@ -5,7 +5,7 @@
 // COMPRESSION: none, zstd or lz4. CDR.jsonl (optional): every serialized message as
 // {topic, type, record_ns, data (hex)}, for write_db3.py.
 // MAPPING.json: {"wheel_joints": {name: joint}, "steer_joints": {name: joint},
-//                "scan_frame": "laser", "lidar2d": {x, y, yaw} | null}
+//                "scan_frame": "laser", "lidar2d": {x, y, yaw} | null, "imu_topic": "/imu"}
 // Record times are the header stamps plus a latency of each topic's own, so that an importer
 // using record times instead of header stamps gets other numbers.
 import { McapWriter } from "@mcap/core";
@@ -120,7 +120,7 @@ function convert(m) {
   }
   if (m.channel === "IMU") {
     const v = (a) => ({ x: a[0], y: a[1], z: a[2] });
-    return ["/imu", "sensor_msgs/Imu", {
+    return [mapping.imu_topic ?? "/imu", "sensor_msgs/Imu", {
       header: header(m.utime, "imu"), orientation: { x: 0, y: 0, z: 0, w: 1 },
       orientation_covariance: new Array(9).fill(0), angular_velocity: v(m.angular_velocity),
       angular_velocity_covariance: new Array(9).fill(0), linear_acceleration: v(m.linear_acceleration),

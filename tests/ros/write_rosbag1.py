@@ -70,7 +70,7 @@ def convert(m, mapping):
         msg.angular_velocity.x, msg.angular_velocity.y, msg.angular_velocity.z = m["angular_velocity"]
         a = m["linear_acceleration"]
         msg.linear_acceleration.x, msg.linear_acceleration.y, msg.linear_acceleration.z = a
-        return "/imu", msg, "imu"
+        return mapping.get("imu_topic", "/imu"), msg, "imu"
     if m["channel"] == "DRIVE_CMD" and m["mode"] == 0:
         msg = TwistStamped()
         msg.twist.linear.x, msg.twist.linear.y, msg.twist.angular.z = m["vx"], m["vy"], m["omega"]

@@ -85,8 +85,9 @@ class BagConverter {
       if (topic == ros_.imu) Imu(message);
       if (topic == ros_.odom) Odometry(message);
       if (topic == ros_.cmd_vel) Command(message);
-      if (tf && topic == ros_.tf_static) Transforms(message);
+      if (tf && topic == ros_.tf_static) static_transforms_.push_back(&message);
     }
+    for (const BagMessage* message : static_transforms_) Transforms(*message);  // knowing the scan's frame
     summary_.lines = static_cast<int64_t>(bag_.messages.size());
     for (const auto* order : {&wheels_order_, &scan_order_, &imu_order_, &pose_order_, &command_order_})
       summary_.duplicates_dropped += order->duplicates;
@@ -246,6 +247,7 @@ class BagConverter {
       pose_order_{"odom"}, command_order_{"cmd_vel"};
   std::vector<double> first_position_;
   std::string scan_frame_;
+  std::vector<const BagMessage*> static_transforms_;
   int64_t skipped_joint_states_ = 0, command_seq_ = 0;
 };
 
