@@ -7,9 +7,8 @@ namespace calib::yaml {
 
 namespace {
 
-bool Steers(DriveType drive, const std::string& role) {
-  return drive != DriveType::kDifferential && !role.empty();
-}
+// Every wheel of a tricycle or dual steer drive steers, none of a differential drive.
+bool Steers(DriveType drive) { return drive != DriveType::kDifferential; }
 
 // role -> joint, roles of the drive only; `steering` limits them to steered wheels.
 std::map<std::string, std::string> ReadJoints(const Reporter& reporter, const Field& field,
@@ -17,7 +16,7 @@ std::map<std::string, std::string> ReadJoints(const Reporter& reporter, const Fi
                                               std::set<std::string>* used) {
   std::vector<std::string> roles;
   for (const auto& role : WheelRoles(drive))
-    if (!steering || Steers(drive, role)) roles.push_back(role);
+    if (!steering || Steers(drive)) roles.push_back(role);
   const std::string hint = roles.empty()
                                ? std::string("a ") + DriveTypeName(drive) + " drive has no steered wheel"
                                : std::string("wheel roles of a ") + DriveTypeName(drive) +

@@ -25,6 +25,8 @@ enum Opcode : uint8_t {
 };
 // A bag is read whole, like every importer's input.
 constexpr size_t kMaxFileBytes = size_t{4} << 30;
+// LZ4 cannot expand data more than 255-fold (one byte per 255 of a run).
+constexpr uint64_t kMaxLz4Ratio = 255;
 
 // Reads the fields of one record's content; a field past its end is the record's problem.
 class Fields {
@@ -179,12 +181,27 @@ class McapReader {
     }
   }
 
+  // A chunk's size checked against what its compressed bytes can hold before it is allocated.
+  static void CheckSize(Fields* f, const std::string& compression, const uint8_t* in, uint64_t length,
+                        uint64_t size) {
+    bool plausible = true;
+    if (compression.empty()) plausible = length == size;
+    if (compression == "zstd") {
+      const unsigned long long content = ZSTD_getFrameContentSize(in, length);
+      // The first frame's size when it says it (a chunk may hold several frames).
+      plausible = content == ZSTD_CONTENTSIZE_UNKNOWN || content <= size;
+    }
+    if (compression == "lz4") plausible = size <= kMaxLz4Ratio * length + 1024;
+    if (!plausible)
+      f->Fail(std::to_string(length) + " bytes of " + (compression.empty() ? "uncompressed" : compression) +
+              " chunk cannot hold the " + std::to_string(size) + " it says (corrupt chunk)");
+  }
+
   std::vector<uint8_t> Decompress(Fields* f, const std::string& compression, const uint8_t* in,
                                   uint64_t length, uint64_t size) {
+    CheckSize(f, compression, in, length, size);
     std::vector<uint8_t> out(size);
     if (compression.empty()) {
-      if (length != size) f->Fail("uncompressed chunk of " + std::to_string(length) +
-                                  " bytes says " + std::to_string(size));
       if (size) std::memcpy(out.data(), in, size);
     } else if (compression == "zstd") {
       const size_t n = ZSTD_decompress(out.data(), size, in, length);

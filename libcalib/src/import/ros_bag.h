@@ -28,9 +28,9 @@ struct Bag {
   std::vector<BagMessage> messages;        // those of the wanted topics, by record time
 };
 
-// Upper bound on one record or a chunk's uncompressed size: no robot message is this large, and
-// a corrupt length must be refused before it is allocated.
-inline constexpr uint64_t kMaxBagRecordBytes = uint64_t{1} << 30;
+// Upper bound on one message or a chunk's uncompressed size (writers' chunks are a few MB at
+// most): a corrupt length must be refused before it is allocated.
+inline constexpr uint64_t kMaxBagRecordBytes = uint64_t{1} << 28;
 
 // MCAP file (mcap.dev/spec): the data section read record by record, chunks decompressed
 // (none, zstd, lz4) and their CRC checked; throws InputError naming the file, "record N (byte
