@@ -319,5 +319,38 @@ TEST(RobotFileTest, EmptyAndUnreadableFiles) {
   std::remove(path.c_str());
 }
 
+// The ros: block (docs/ros.md): topics, joints per wheel role, stamps; the bundled example.
+TEST(RobotFileTest, RosBlock) {
+  const std::string ros =
+      "ros:\n"                                                                       // 10
+      "  stamps: record\n"                                                           // 11
+      "  joint_states: {wheels: {drive: traction}, steering: {drive: steering}}\n"   // 12
+      "  scan: /front/scan\n";                                                       // 13
+  const RobotDescription robot = ParseRobot(kTricycle + ros, kOrigin);
+  ASSERT_TRUE(robot.ros.has_value());
+  EXPECT_FALSE(robot.ros->header_stamps);
+  EXPECT_EQ(robot.ros->joint_states, "/joint_states");
+  EXPECT_EQ(robot.ros->wheel_joints.at("drive"), "traction");
+  EXPECT_EQ(robot.ros->steering_joints.at("drive"), "steering");
+  EXPECT_EQ(robot.ros->scan, "/front/scan");
+  EXPECT_EQ(robot.ros->imu, "");
+  EXPECT_EQ(robot.ros->tf_static, "/tf_static");
+  EXPECT_FALSE(ParseRobot(kTricycle, kOrigin).ros.has_value());
+
+  ExpectError(kTricycle + Replace(ros, "scan:", "scna:"), 13, "ros.scna", "did you mean scan?");
+  ExpectError(kTricycle + Replace(ros, "stamps: record", "stamps: bag"), 11, "ros.stamps",
+              "expected header");
+  ExpectError(kTricycle + Replace(ros, "{drive: traction}", "{left: traction}"), 12,
+              "ros.joint_states.wheels.left", "wheel roles of a tricycle drive are drive");
+  ExpectError(kTricycle + Replace(ros, "{drive: steering}", "{drive: traction}"), 12,
+              "ros.joint_states.steering.drive", "joint 'traction' is named twice");
+
+  const RobotDescription example =
+      LoadRobotFile(std::string(AGVCAL_SOURCE_DIR) + "/config/robots/ros/diff_robot.yaml");
+  ASSERT_TRUE(example.ros.has_value());
+  EXPECT_EQ(example.ros->wheel_joints.at("right"), "right_wheel_joint");
+  EXPECT_EQ(example.ros->cmd_vel, "/cmd_vel");
+}
+
 }  // namespace
 }  // namespace calib

@@ -11,7 +11,7 @@ data=${AGVCAL_DATA_DIR:-$here/../shared/data}
 corpus=$here/bench/fuzz/corpus
 rm -rf "$corpus"
 for t in recording messages robot_file sim_config pcd kitti carmen mines lego optiodom pose_csv candump \
-         sick_cola bridge_config; do mkdir -p "$corpus/$t"; done
+         sick_cola bridge_config mcap; do mkdir -p "$corpus/$t"; done
 "$build/bench/fuzz/fuzz_seeds" "$corpus"
 cp "$here"/config/robots/*.yaml "$here"/config/robots/datasets/*.yaml "$corpus/robot_file/"
 cp "$here"/config/sims/*.yaml "$corpus/sim_config/"
@@ -55,4 +55,24 @@ done
 printf 'time, x, y, theta\n1000000, 0.0, 0.0, 0.0\n1050000, 0.1, 0.0, 0.01\n' > "$corpus/pose_csv/micros.csv"
 printf '# seconds, 3 variances\n1.0,0,0,0,0.01,0.01,0.001\n1.05,0.1,0,0.01,0.01,0.01,0.001\n' > "$corpus/pose_csv/seconds.csv"
 gzip -c "$corpus/pose_csv/micros.csv" > "$corpus/pose_csv/micros.csv.gz"
+# MCAP: the sample log's first messages in bags of @mcap/core (tests/ros: zstd, lz4, none),
+# when its writers are installed (tests/ros/install.sh, AGVCAL_ROS_WRITERS).
+writers=${AGVCAL_ROS_WRITERS:-$here/build/ros-writers}
+if [ -d "$writers/node_modules/@mcap/core" ]; then
+  tmp=$(mktemp -d)
+  lcm-gen -p --ppath "$tmp" "$here"/lcmtypes/*.lcm >/dev/null
+  ln -s "$writers/node_modules" "$tmp/node_modules"   # an ES module finds its packages beside it
+  cp "$here/tests/ros/write_bags.mjs" "$tmp/"
+  python3 "$here/tests/ros/log_to_json.py" "$tmp" "$here/logs/diff_robot_demo.log" | head -60 > "$tmp/m.jsonl"
+  echo '{"wheel_joints": {"left_wheel": "left_wheel_joint", "right_wheel": "right_wheel_joint"},
+         "scan_frame": "laser", "lidar2d": {"x": 0.2, "y": 0, "yaw": 0}, "imu_topic": "/imu/data"}' \
+    > "$tmp/map.json"
+  for c in zstd lz4 none; do
+    node "$tmp/write_bags.mjs" "$tmp/m.jsonl" "$tmp/map.json" \
+      "$corpus/mcap/diff_robot_$c.mcap" "$c"
+  done
+  rm -rf "$tmp"
+else
+  echo "no MCAP seeds: no $writers/node_modules (tests/ros/install.sh)" >&2
+fi
 du -sh "$corpus"

@@ -12,7 +12,7 @@ set -euo pipefail
 here=$(cd "$(dirname "$0")/../.." && pwd)
 build=${AGVCAL_FUZZ_BUILD:-$here/build-fuzz}
 targets_all=(recording messages robot_file sim_config pcd kitti carmen mines lego optiodom pose_csv
-             candump sick_cola bridge_config)
+             candump sick_cola bridge_config mcap)
 usage() { sed -n '2,10p' "$0" | sed 's/^# \{0,1\}//'; }
 ci=0
 case "${1:-}" in

@@ -18,7 +18,7 @@ const Command kCommands[] = {
     {"simulate", agvcal_cli::Simulate, "write a simulated recording (commander + simulator, offline)"},
     {"info", agvcal_cli::Info, "channels, message counts, rates and time span of a recording"},
     {"solve", agvcal_cli::Solve, "calibrate drive parameters and sensor mount from a recording"},
-    {"import", agvcal_cli::Import, "turn a dataset (carmen, mines, lego, optiodom, pose-csv) into a recording"},
+    {"import", agvcal_cli::Import, "turn a dataset (carmen, mines, lego, optiodom, pose-csv) or a ROS bag into a recording"},
     {"ground", agvcal_cli::Ground, "3D lidar height, pitch and roll above the floor"},
     {"fuse", agvcal_cli::Fuse, "wheel odometry fused with the gyro (docs/imu.md)"},
     {"stop", agvcal_cli::Stop, "the operator's stop on the bus: the commander holds the robot"},

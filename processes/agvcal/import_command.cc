@@ -16,8 +16,8 @@ void Declare(agvcal_process::CommandLine* args) {
   args->Description(R"(Turns a dataset recorded elsewhere into an lcm-logger recording of the messages
 of docs/spec/messages.md (WHEELS, SCAN, POSE), so that it can be calibrated like a
 live recording. INPUT may be gzip-compressed. OUT.log is written atomically.)")
-      .Positional("FORMAT", "carmen, mines, lego, optiodom or pose-csv (below)")
-      .Positional("INPUT", "the dataset's file")
+      .Positional("FORMAT", "carmen, mines, lego, optiodom, pose-csv, rosbag2 or rosbag\n(below)")
+      .Positional("INPUT", "the dataset's file (rosbag2: or the bag's directory)")
       .Positional("OUT.log", "the recording to write")
       .Option("--robot", "ROBOT.yaml",
               "robot file (docs/spec/robot.md): wheel names, nominal values,\n"
@@ -35,6 +35,10 @@ live recording. INPUT may be gzip-compressed. OUT.log is written atomically.)")
               "            steering -> WHEELS, OptiTrack ground truth -> POSE\n"
               "  pose-csv  external poses: time,x,y,theta[,3 variances | 9 covariances];\n"
               "            integer time = us, decimal = s; '#' comments, optional header\n"
+              "  rosbag2   ROS 2 bag: its directory, an .mcap or a .db3 file; rosbag: a ROS 1\n"
+              "            .bag. The robot file's ros: block names the topics: joint_states ->\n"
+              "            WHEELS, scan -> SCAN, imu -> IMU, odom -> POSE, cmd_vel -> DRIVE_CMD,\n"
+              "            tf_static noted; header stamps unless ros.stamps: record (docs/ros.md)\n"
               "Records repeating their predecessor's stamp are dropped and counted; a stamp\n"
               "going backwards, a malformed line or a truncated file is an error naming the\n"
               "file and line (exit 2).\n"

@@ -6,6 +6,7 @@
 #include "calib/calibrate/calibration_report.h"
 #include "calib/calibrate/heldout.h"
 #include "calib/calibrate/result_files.h"
+#include "calib/calibrate/ros_results.h"
 #include "calib/calibrate/recording_input.h"
 #include "calib/core/errors.h"
 #include "calib/core/statistics.h"
@@ -59,6 +60,13 @@ time offset. Prints a summary; RESULT.json follows docs/spec/cli.md.)")
               "(--heldout-windows, default 20), paired by a sign test;\n"
               "also fits the rest alone and says whether the halves agree")
       .Option("--heldout-windows", "N", "the number of held-out windows of --fit-fraction (default 20)")
+      .Option("--write-urdf", "FILE", "ROS: the lidar's fixed joint (URDF), sigma and recording in\n"
+              "comments (docs/ros.md)")
+      .Option("--write-tf", "FILE", "ROS 2: a launch file publishing the lidar's static transform")
+      .Option("--write-controller", "FILE",
+              "ROS 2: ros2_control diff_drive_controller / tricycle_controller\nparameters")
+      .Option("--lidar-frame", "NAME", "the lidar's frame in those files (default laser; the base:\n"
+              "the robot file's ros.base_frame, default base_link)")
       .Flag("--quiet", "no progress on stderr")
       .Footer("Exit status: 0 done; 2 unusable input; 3 the recording cannot determine a\n"
               "parameter (stderr names it and the motion to add); 1 internal error.\n");
@@ -74,6 +82,20 @@ void PrintEstimate(const std::string& name, const calib::Estimate& e) {
   estimate += std::string(width < 48 ? 48 - width : 1, ' ');
   std::printf("  %-20s %s(nominal %.6g%s)\n", name.c_str(), estimate.c_str(), e.nominal,
               unit.empty() ? "" : (" " + unit).c_str());
+}
+// --write-urdf, --write-tf, --write-controller (calib/calibrate/ros_results.h).
+void WriteRosResults(const agvcal_process::CommandLine& args, const calib::RobotDescription& robot,
+                     const calib::CalibrationResult& result, const std::string& log_path,
+                     calib::Outputs* outputs) {
+  if (!args.Has("--write-urdf") && !args.Has("--write-tf") && !args.Has("--write-controller")) return;
+  const calib::ResultProvenance source = calib::RecordingProvenance(log_path);
+  const std::string lidar = args.Get("--lidar-frame", "laser");
+  if (args.Has("--write-urdf"))
+    outputs->WriteFile(args.Get("--write-urdf", ""), calib::LidarUrdf(robot, result, source, lidar));
+  if (args.Has("--write-tf"))
+    outputs->WriteFile(args.Get("--write-tf", ""), calib::LidarStaticTfLaunch(robot, result, source, lidar));
+  if (args.Has("--write-controller"))
+    outputs->WriteFile(args.Get("--write-controller", ""), calib::DriveControllerYaml(robot, result, source));
 }
 }  // namespace
 
@@ -110,7 +132,9 @@ int Solve(int argc, char** argv) {
   if (args.Has("--distance-std")) options.imu.distance_std_m = positive("--distance-std");
   if (args.Has("--turn-angle")) options.imu.turn_angle_rad = positive("--turn-angle") * M_PI / 180.0;
   calib::CheckOutputs({args.positional[0], log_path}, {{"--out", args.Get("--out", "")},  // before the work: exit 2 at once
-      {"--write-robot", args.Get("--write-robot", "")}, {"--report", args.Get("--report", ""), true}});
+      {"--write-robot", args.Get("--write-robot", "")}, {"--report", args.Get("--report", ""), true},
+      {"--write-urdf", args.Get("--write-urdf", "")}, {"--write-tf", args.Get("--write-tf", "")},
+      {"--write-controller", args.Get("--write-controller", "")}});
   if (!args.Has("--quiet")) options.progress = [](const std::string& line) { std::cerr << line << "\n"; };
 
   const calib::CalibrationResult result = calib::SolveLog(robot, log_path, options);
@@ -192,6 +216,7 @@ int Solve(int argc, char** argv) {
     outputs.WriteFile(args.Get("--write-robot", ""),
                       calib::CalibratedRobotYaml(robot, result, log_path));
   }
+  WriteRosResults(args, robot, result, log_path, &outputs);
   outputs.Commit();
   return calib::kExitOk;
 }

@@ -33,8 +33,8 @@ for i in $(seq 1 400); do echo "ODOM $i 0 0 0 0 0 $i.5 host $i"; done | gzip -9 
 head -c $(($(stat -c %s "$TMP/full.clf.gz") - 20)) "$TMP/full.clf.gz" >"$TMP/cut.clf.gz"
 expect_status 2 "truncated .gz" "$AGVCAL" import carmen "$TMP/cut.clf.gz" "$TMP/out.log" --robot "$robot"
 stderr_has "cut.clf.gz: line"; stderr_has "truncated .gz"
-expect_status 2 "unknown format" "$AGVCAL" import rosbag "$TMP/bad.clf" "$TMP/out.log"
-stderr_has "unknown format 'rosbag'"
+expect_status 2 "unknown format" "$AGVCAL" import bagfile "$TMP/bad.clf" "$TMP/out.log"
+stderr_has "unknown format 'bagfile'"
 expect_status 2 "no robot file" "$AGVCAL" import mines "$TMP/bad.clf" "$TMP/out.log"
 stderr_has "--robot config/robots/datasets/mines_rover.yaml"
 expect_status 2 "robot of another drive type" "$AGVCAL" import carmen "$TMP/bad.clf" "$TMP/out.log" \

@@ -14,6 +14,7 @@
 #include "calib/core/errors.h"
 #include "calib/core/robot.h"
 #include "calib/core/units.h"
+#include "core/robot_ros.h"
 #include "core/yaml_checked.h"
 
 namespace calib {
@@ -236,7 +237,7 @@ RobotDescription ParseDocument(const Reporter& reporter, const YAML::Node& root,
                                const std::string& origin) {
   static const std::vector<std::string> kTopKeys{"name",  "drive", "wheels", "params",
                                                  "lidar2d", "lidar3d", "imu", "pose",
-                                                 "limits", "commands", "std", "source"};
+                                                 "limits", "commands", "std", "source", "ros"};
   const int root_line = std::max(1, LineOf(root.Mark()));
   if (!root.IsMap()) {
     reporter.Fail(root_line, "",
@@ -278,6 +279,7 @@ RobotDescription ParseDocument(const Reporter& reporter, const YAML::Node& root,
       if (!robot.commands_between) reporter.Fail(*v, "expected hold, ramp or continuous, got '" + word + "'");
     }
   }
+  if (const auto f = top.Find("ros")) robot.ros = yaml::ReadRosTopics(reporter, *f, robot.drive);
   // Written by `agvcal solve`; carried for the user, not read back.
   if (const auto f = top.Find("std")) {
     if (!f->value.IsMap()) reporter.Fail(*f, "expected a map of standard deviations, got " +

@@ -28,10 +28,11 @@ void EventBuffer::Publish(MessageSink* sink, ImportSummary* summary) {
   events_.clear();
 }
 
-bool StampOrder::Accept(const TextReader& reader, int64_t utime) {
+bool StampOrder::Check(int64_t utime, std::string* problem) {
   if (any_ && utime < last_) {
-    reader.Fail(what_ + " stamp " + std::to_string(utime) + " us goes back from " +
-                std::to_string(last_) + " us on an earlier line (records out of time order)");
+    *problem = what_ + " stamp " + std::to_string(utime) + " us goes back from " +
+               std::to_string(last_) + " us";
+    return false;
   }
   if (any_ && utime == last_) {
     ++duplicates;
@@ -40,6 +41,22 @@ bool StampOrder::Accept(const TextReader& reader, int64_t utime) {
   any_ = true;
   last_ = utime;
   return true;
+}
+
+bool StampOrder::Accept(const TextReader& reader, int64_t utime) {
+  std::string problem;
+  const bool accepted = Check(utime, &problem);
+  if (!problem.empty()) reader.Fail(problem + " on an earlier line (records out of time order)");
+  return accepted;
+}
+
+bool StampOrder::Accept(const std::string& file, const std::string& place, int64_t utime) {
+  std::string problem;
+  const bool accepted = Check(utime, &problem);
+  if (!problem.empty())
+    throw InputError(file, place, problem + " in an earlier record (records out of time order; "
+                                            "ros: stamps: record uses the bag's record times)");
+  return accepted;
 }
 
 agvcal::laser_scan_t MakeScan(int64_t utime, double angle_min, double angle_increment,

@@ -15,7 +15,7 @@
 namespace calib::import_internal {
 
 // Order among messages with equal stamps.
-enum Stream { kWheelsStream = 0, kScanStream = 1, kPoseStream = 2 };
+enum Stream { kWheelsStream = 0, kScanStream = 1, kPoseStream = 2, kImuStream = 3, kCommandStream = 4 };
 
 // Holds an import's messages until the input has been read completely, then publishes
 // them sorted by (utime, stream), keeping input order otherwise.
@@ -35,14 +35,18 @@ class EventBuffer {
 };
 
 // The stamp rule of importers.h for one stream: Accept() is false for a repeated stamp
-// (counted in `duplicates`) and throws InputError at the reader's line for one going back.
+// (counted in `duplicates`) and throws InputError at the reader's line (or the given file and
+// place) for one going back.
 class StampOrder {
  public:
   explicit StampOrder(std::string what) : what_(std::move(what)) {}
   bool Accept(const TextReader& reader, int64_t utime);
+  bool Accept(const std::string& file, const std::string& place, int64_t utime);
   int64_t duplicates = 0;
 
  private:
+  // The problem with `utime`, or "" when it goes on; counts and remembers it.
+  bool Check(int64_t utime, std::string* problem);
   std::string what_;
   bool any_ = false;
   int64_t last_ = 0;

@@ -13,13 +13,15 @@ const char* RobotHint(const std::string& format) {
   if (format == "carmen") return "config/robots/datasets/mit_csail.yaml";
   if (format == "mines") return "config/robots/datasets/mines_rover.yaml";
   if (format == "lego") return "config/robots/datasets/lego_robot.yaml";
+  if (format == "rosbag2" || format == "rosbag") return "ROBOT.yaml with a ros: block (docs/ros.md)";
   return "config/robots/datasets/optiodom_tricycle.yaml or optiodom_diff.yaml";
 }
 
 }  // namespace
 
 const std::vector<std::string>& ImportFormats() {
-  static const std::vector<std::string> kFormats{"carmen", "mines", "lego", "optiodom", "pose-csv"};
+  static const std::vector<std::string> kFormats{"carmen", "mines",    "lego",   "optiodom",
+                                                    "pose-csv", "rosbag2", "rosbag"};
   return kFormats;
 }
 
@@ -42,6 +44,8 @@ ImportSummary Import(const std::string& format, const std::string& input,
   if (format == "mines") return ImportMines(input, *robot, sink);
   if (format == "lego") return ImportLego(input, LegoScanPathFor(input), *robot, sink);
   if (format == "optiodom") return ImportOptiOdom(input, *robot, sink);
+  if (format == "rosbag2") return ImportRosbag2(input, *robot, sink);
+  if (format == "rosbag") return ImportRosbag(input, *robot, sink);
   return ImportPoseCsv(input, robot ? PoseChannel(*robot) : "POSE", sink);
 }
 

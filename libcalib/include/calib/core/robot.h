@@ -97,6 +97,20 @@ enum class CommandsBetween { kHold, kRamp, kContinuous };
 const char* CommandsBetweenName(CommandsBetween between);
 // The value named `word`, or none.
 std::optional<CommandsBetween> CommandsBetweenNamed(const std::string& word);
+// The robot's ROS topics (robot file `ros:`, docs/ros.md): which topic of a bag is which
+// sensor, for `agvcal import rosbag2|rosbag`. An empty topic is not imported.
+struct RosTopics {
+  bool header_stamps = true;                          // false: the bag's record times
+  std::string joint_states;                           // sensor_msgs/JointState -> WHEELS
+  std::map<std::string, std::string> wheel_joints;    // wheel role -> joint (drive rotation)
+  std::map<std::string, std::string> steering_joints; // wheel role -> joint (raw steering angle)
+  std::string scan;                                   // sensor_msgs/LaserScan -> lidar2d channel
+  std::string imu;                                    // sensor_msgs/Imu -> imu channel
+  std::string odom;                                   // nav_msgs/Odometry -> pose channel
+  std::string cmd_vel;                                // geometry_msgs/Twist(Stamped) -> DRIVE_CMD
+  std::string tf_static = "/tf_static";               // tf2_msgs/TFMessage: nominal mounts, noted
+  std::string base_frame = "base_link";               // the robot frame's name in tf
+};
 
 struct RobotDescription {
   std::string name;
@@ -109,6 +123,7 @@ struct RobotDescription {
   std::optional<Mount2d> pose;                // external pose source
   Limits limits;
   std::optional<CommandsBetween> commands_between;  // commands.between; absent: chosen from the data
+  std::optional<RosTopics> ros;
   std::string source_file;                    // where it was read from (for messages)
 
   double param(const std::string& key) const;  // throws std::out_of_range naming the key

@@ -98,6 +98,22 @@ ImportSummary ImportOptiOdom(const std::string& run_path, const RobotDescription
 ImportSummary ImportPoseCsv(const std::string& path, const std::string& channel,
                             MessageSink* sink);
 
+// ROS 2 bag (docs/ros.md): INPUT = a bag directory (its .mcap and .db3 files in name order),
+// an MCAP file or a rosbag2 SQLite3 file. The robot file's ros: block names the topics:
+// joint_states (sensor_msgs/JointState: the wheel joints' positions and velocities, the
+// steering joints' positions) -> WHEELS; scan (sensor_msgs/LaserScan, time_increment kept)
+// -> lidar2d.channel; imu (sensor_msgs/Imu) -> imu.channel; odom (nav_msgs/Odometry, an
+// external pose) -> pose.channel; cmd_vel (geometry_msgs/Twist or TwistStamped) -> DRIVE_CMD;
+// tf_static (tf2_msgs/TFMessage): the base frame's transforms, in the notes. Stamps: the
+// messages' header stamps (ros.stamps: record: the bag's record times; Twist has no header).
+// A configured topic missing from the bag or of another type, a corrupt or truncated record,
+// an unknown compression or encoding throws InputError naming the file and the record.
+ImportSummary ImportRosbag2(const std::string& input, const RobotDescription& robot,
+                           MessageSink* sink);
+
+// ROS 1 bag (.bag), read through rosbag_storage; otherwise as ImportRosbag2.
+ImportSummary ImportRosbag(const std::string& path, const RobotDescription& robot, MessageSink* sink);
+
 // For `agvcal import`: the format names, whether a format needs a robot file, and the
 // dispatch (INPUT = the file named by each format above; lego: the motor file). Throws
 // InputError for an unknown format or a missing robot.
