@@ -23,7 +23,8 @@ the change of its estimate within 15 % of the injection or 2 sigma; clean = ever
 effect within 2 sigma of its as-recorded estimate (declared or single-fit).
 
   scripts/mismatch_real_injection.py [--build DIR] [--work DIR] [--jobs J] [--quick]
-                                     [--names a,b] [--out docs/mismatch-real-injection.md]
+                                     [--multiples 3,10] [--one-sign] [--names a,b]
+                                     [--compare /work/main/build] [--score-only] [--out FILE]
 --quick: 3x only, one sign of each offset, three recordings (mines_exp1, lego_robot4, the first
 OptiOdom tricycle run): for iteration. Prints the Markdown table (and writes it to --out).
 """
