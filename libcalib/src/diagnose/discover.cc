@@ -35,6 +35,39 @@ const std::vector<CataloguedGroup>& CataloguedGroups() {
   return groups;
 }
 
+// A catalogued effect the selection declared that the discovered terms explain (its parameter no
+// longer significant in the joint fit, at the catalogue-wide level) is not declared: the term
+// explains its residual and more, and nothing is reported twice.
+void DemoteExplained(const Recording& recording, const Model& model, const std::vector<int>& free_betas,
+                     const LinearFit& all, double alpha, DiagnoseReport* report) {
+  const int first_beta = int(FreeParams(recording).size()) + 3;
+  const double m = double(CataloguedGroups().size());
+  std::vector<FoundEffect> kept;
+  for (const FoundEffect& e : report->effects) {
+    bool explained = false;
+    for (const CataloguedGroup& g : CataloguedGroups()) {
+      if (e.name != g.name || g.betas.size() != 1) continue;
+      const auto at = std::find(free_betas.begin(), free_betas.end(), g.betas[0]);
+      if (at == free_betas.end()) continue;
+      const int c = first_beta + int(at - free_betas.begin());
+      const double value = model.beta[g.betas[0]] + all.coef[c], std = std::sqrt(std::max(all.cov(c, c), 0.0));
+      explained = std > 0 && std::erfc(std::abs(value / std) / std::sqrt(2.0)) * m >= alpha;
+    }
+    if (explained)
+      for (CandidateOutcome& c : report->candidates)
+        if (c.name == e.name && c.wheel == e.wheel && c.status == CandidateStatus::kFound) {
+          c.status = CandidateStatus::kRejected;
+          c.note = "explained by the discovered terms";
+        }
+    if (explained)
+      report->notes.push_back(e.name + ", declared by the catalogue's selection, is explained by the discovered "
+                               "terms (not significant beside them): not declared");
+    else
+      kept.push_back(e);
+  }
+  report->effects = kept;
+}
+
 struct Step {
   int term = -1;
   double z = 0, p = 1;
@@ -61,7 +94,6 @@ class Discovery {
   void NoteStop(const Step& step, double p_adjusted, const char* why);
   void DropNotLowerHeldout(LinearFit* base);
   void Correct(const LinearFit& all);
-  void DemoteExplained(const LinearFit& all);
   void MeasureMisfit(const LinearFit& all);
   // The chosen term k's coefficient: where the rows are linearised plus the fit's step.
   double TermValue(const LinearFit& f, int k) const {
@@ -224,7 +256,7 @@ void Discovery::Run() {
   for (int k = 0; k < int(chosen_.terms.size()); ++k) report_->discovered.push_back(Describe(k, base));
   if (!chosen_.terms.empty()) {
     Correct(base);
-    DemoteExplained(base);
+    DemoteExplained(recording_, model_, free_betas_, base, alpha_, report_);
   }
   MeasureMisfit(base);
 }
@@ -337,38 +369,6 @@ LinearFit Discovery::Relinearise(LinearFit fit) {
     fit = FitRows(rows_, chosen_, recording_.hac_lags);
   }
   return fit;
-}
-
-// A catalogued effect the selection declared that the discovered terms explain (its parameter no
-// longer significant in the joint fit, at the catalogue-wide level) is not declared: the term
-// explains its residual and more, and nothing is reported twice.
-void Discovery::DemoteExplained(const LinearFit& all) {
-  const int first_beta = int(FreeParams(recording_).size()) + 3;
-  const double m = double(CataloguedGroups().size());
-  std::vector<FoundEffect> kept;
-  for (const FoundEffect& e : report_->effects) {
-    bool explained = false;
-    for (const CataloguedGroup& g : CataloguedGroups()) {
-      if (e.name != g.name || g.betas.size() != 1) continue;
-      const auto at = std::find(free_betas_.begin(), free_betas_.end(), g.betas[0]);
-      if (at == free_betas_.end()) continue;
-      const int c = first_beta + int(at - free_betas_.begin());
-      const double value = model_.beta[g.betas[0]] + all.coef[c], std = std::sqrt(std::max(all.cov(c, c), 0.0));
-      explained = std > 0 && std::erfc(std::abs(value / std) / std::sqrt(2.0)) * m >= alpha_;
-    }
-    if (explained)
-      for (CandidateOutcome& c : report_->candidates)
-        if (c.name == e.name && c.wheel == e.wheel && c.status == CandidateStatus::kFound) {
-          c.status = CandidateStatus::kRejected;
-          c.note = "explained by the discovered terms";
-        }
-    if (explained)
-      report_->notes.push_back(e.name + ", declared by the catalogue's selection, is explained by the discovered "
-                               "terms (not significant beside them): not declared");
-    else
-      kept.push_back(e);
-  }
-  report_->effects = kept;
 }
 
 // The intervals' residuals after, and the held-out RMS, with the terms found.
