@@ -16,8 +16,8 @@ python3 - "$TMP/report.json" <<'PY' && pass "REPORT.json has the keys of spec/cl
 import json, sys
 r = json.load(open(sys.argv[1]))
 assert r["input"]["dropped"] == 1 and "(WHEELS): wheel 'drive' position jumps" in r["input"]["notes"][0], r.get("input")
-assert r["verdict"] in ("effects_found", "no_significant_effect")
-assert isinstance(r["effects"], list) and isinstance(r["unexplained"], list)
+assert r["verdict"] in ("effects_found", "no_significant_effect", "unmodelled_structure")
+assert isinstance(r["effects"], list) and isinstance(r["unexplained"], list) and isinstance(r["discovered"], list)
 for e in r["effects"]:
     for k in ("name", "params", "evidence", "heldout_rms_before", "heldout_rms_after", "where"):
         assert k in e, k

@@ -176,7 +176,7 @@ CalibrationResult Diagnoser::WithCandidateInside(const CalibrationResult& unchec
     }
     return out;
   };
-  const std::vector<Candidate> cands = Candidates(robot_, data_);
+  const std::vector<Candidate> cands = Candidates(robot_, data_, recording_.max_offset_s);
   int best = -1;
   Fit best_fit;
   std::vector<std::string> best_left;

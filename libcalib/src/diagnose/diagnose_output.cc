@@ -461,7 +461,7 @@ std::string CompareWithSimJson(const DiagnoseReport& real, const DiagnoseReport&
 std::string SimConfigYaml(const DiagnoseReport& r, const std::string& robot_path) {
   std::ostringstream s;
   s.precision(10);
-  s << "# Written by agvcal diagnose: the calibration, the effects found and the terms discovered, so that the\n"
+  s << "# Written by agvcal diagnose: the calibration and the effects found, so that the\n"
        "# simulator reproduces the recorded robot.\n";
   s << "robot: " << robot_path << "\ntruth:\n  params: {";
   bool first = true;

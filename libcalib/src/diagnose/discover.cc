@@ -35,6 +35,39 @@ const std::vector<CataloguedGroup>& CataloguedGroups() {
   return groups;
 }
 
+// A catalogued effect the selection declared that the discovered terms explain (its parameter no
+// longer significant in the joint fit, at the catalogue-wide level) is not declared: the term
+// explains its residual and more, and nothing is reported twice.
+void DemoteExplained(const Recording& recording, const Model& model, const std::vector<int>& free_betas,
+                     const LinearFit& all, double alpha, DiagnoseReport* report) {
+  const int first_beta = int(FreeParams(recording).size()) + 3;
+  const double m = double(CataloguedGroups().size());
+  std::vector<FoundEffect> kept;
+  for (const FoundEffect& e : report->effects) {
+    bool explained = false;
+    for (const CataloguedGroup& g : CataloguedGroups()) {
+      if (e.name != g.name || g.betas.size() != 1) continue;
+      const auto at = std::find(free_betas.begin(), free_betas.end(), g.betas[0]);
+      if (at == free_betas.end()) continue;
+      const int c = first_beta + int(at - free_betas.begin());
+      const double value = model.beta[g.betas[0]] + all.coef[c], std = std::sqrt(std::max(all.cov(c, c), 0.0));
+      explained = std > 0 && std::erfc(std::abs(value / std) / std::sqrt(2.0)) * m >= alpha;
+    }
+    if (explained)
+      for (CandidateOutcome& c : report->candidates)
+        if (c.name == e.name && c.wheel == e.wheel && c.status == CandidateStatus::kFound) {
+          c.status = CandidateStatus::kRejected;
+          c.note = "explained by the discovered terms";
+        }
+    if (explained)
+      report->notes.push_back(e.name + ", declared by the catalogue's selection, is explained by the discovered "
+                               "terms (not significant beside them): not declared");
+    else
+      kept.push_back(e);
+  }
+  report->effects = kept;
+}
+
 struct Step {
   int term = -1;
   double z = 0, p = 1;
@@ -59,8 +92,8 @@ class Discovery {
   LinearFit Relinearise(LinearFit fit);
   void DropWeakest(LinearFit* base);
   void NoteStop(const Step& step, double p_adjusted, const char* why);
+  void DropNotLowerHeldout(LinearFit* base);
   void Correct(const LinearFit& all);
-  void DemoteExplained(const LinearFit& all);
   void MeasureMisfit(const LinearFit& all);
   // The chosen term k's coefficient: where the rows are linearised plus the fit's step.
   double TermValue(const LinearFit& f, int k) const {
@@ -102,23 +135,11 @@ Step Discovery::BestTerm(const LinearFit& base) {
 }
 
 // BIC on the fit blocks (chi-squares in the noise scale of the model it is added to) and the
-// held-out proofs: chi-square and chained heading error lower, the score test one-sided at alpha.
+// held-out score test, one-sided at alpha.
 bool Discovery::Confirmed(const Step& step, const LinearFit& base, const LinearFit& with) {
   const double scale = VarianceFactor(base);
   const double delta_bic = (with.chi2_fit - base.chi2_fit) / scale + std::log(3.0 * base.n_fit);
   if (delta_bic >= 0) return false;
-  // The held-out residual must be lower with the term, interval by interval (chi-square) and
-  // chained (the heading error over drift windows), as well as along its direction (score).
-  if (with.chi2_heldout >= base.chi2_heldout) return false;
-  std::vector<Eigen::Vector3d> before, after;
-  DesignColumns added = chosen_;
-  added.terms.push_back(step.term);
-  for (const DiscoveryRow& row : rows_) {
-    before.push_back(row.unwhiten * ResidualLeft(row, chosen_, base));
-    after.push_back(row.unwhiten * ResidualLeft(row, added, with));
-  }
-  const double drift_before = ChainHeading(rows_, before, recording_.drift_window_s).Rms();
-  if (ChainHeading(rows_, after, recording_.drift_window_s).Rms() >= drift_before) return false;
   const double score = HeldoutScore(rows_, chosen_, step.term, base, recording_.hac_lags);
   return score * (step.z > 0 ? 1 : -1) > NormalUpper(alpha_);
 }
@@ -163,6 +184,28 @@ void Discovery::DropWeakest(LinearFit* base) {
   }
 }
 
+// A term whose held-out residual, where it stands out, is not lower with it (the others and the
+// calibration refitted without it) leaves: the score test sees its direction, this the residual
+// a user would see.
+void Discovery::DropNotLowerHeldout(LinearFit* base) {
+  for (bool dropped = true; dropped;) {
+    dropped = false;
+    for (int k = 0; k < int(chosen_.terms.size()) && !dropped; ++k) {
+      const Discovered d = Describe(k, *base);
+      if (d.heldout_rms_after < d.heldout_rms_before) continue;
+      report_->notes.push_back("discovery: " + d.channel + " by " + d.terms[0].regressor +
+                               " is not modelled: the held-out residual where it stands out is not lower with it");
+      if (!coefficients_.empty()) coefficients_[chosen_.terms[k]] = 0.0;
+      excluded_.push_back(chosen_.terms[k]);
+      chosen_.terms.erase(chosen_.terms.begin() + k);
+      steps_.erase(steps_.begin() + k);
+      rows_ = DiscoveryRows(recording_, model_, terms_, free_betas_, coefficients_);
+      *base = FitRows(rows_, chosen_, recording_.hac_lags);
+      dropped = true;
+    }
+  }
+}
+
 // Why discovery stopped at a term that came close: what the recording could not model.
 void Discovery::NoteStop(const Step& step, double p_adjusted, const char* why) {
   std::ostringstream s;
@@ -204,6 +247,7 @@ void Discovery::Run() {
     base = Relinearise(f);
     DropWeakest(&base);
   }
+  DropNotLowerHeldout(&base);
   // The evidence of each term given the others, in the final joint fit.
   for (int k = 0; k < int(chosen_.terms.size()); ++k) {
     steps_[k].z = TermValue(base, k) / base.Std(rows_[0], k);
@@ -212,7 +256,7 @@ void Discovery::Run() {
   for (int k = 0; k < int(chosen_.terms.size()); ++k) report_->discovered.push_back(Describe(k, base));
   if (!chosen_.terms.empty()) {
     Correct(base);
-    DemoteExplained(base);
+    DemoteExplained(recording_, model_, free_betas_, base, alpha_, report_);
   }
   MeasureMisfit(base);
 }
@@ -325,38 +369,6 @@ LinearFit Discovery::Relinearise(LinearFit fit) {
     fit = FitRows(rows_, chosen_, recording_.hac_lags);
   }
   return fit;
-}
-
-// A catalogued effect the selection declared that the discovered terms explain (its parameter no
-// longer significant in the joint fit, at the catalogue-wide level) is not declared: the term
-// explains its residual and more, and nothing is reported twice.
-void Discovery::DemoteExplained(const LinearFit& all) {
-  const int first_beta = int(FreeParams(recording_).size()) + 3;
-  const double m = double(CataloguedGroups().size());
-  std::vector<FoundEffect> kept;
-  for (const FoundEffect& e : report_->effects) {
-    bool explained = false;
-    for (const CataloguedGroup& g : CataloguedGroups()) {
-      if (e.name != g.name || g.betas.size() != 1) continue;
-      const auto at = std::find(free_betas_.begin(), free_betas_.end(), g.betas[0]);
-      if (at == free_betas_.end()) continue;
-      const int c = first_beta + int(at - free_betas_.begin());
-      const double value = model_.beta[g.betas[0]] + all.coef[c], std = std::sqrt(std::max(all.cov(c, c), 0.0));
-      explained = std > 0 && std::erfc(std::abs(value / std) / std::sqrt(2.0)) * m >= alpha_;
-    }
-    if (explained)
-      for (CandidateOutcome& c : report_->candidates)
-        if (c.name == e.name && c.wheel == e.wheel && c.status == CandidateStatus::kFound) {
-          c.status = CandidateStatus::kRejected;
-          c.note = "explained by the discovered terms";
-        }
-    if (explained)
-      report_->notes.push_back(e.name + ", declared by the catalogue's selection, is explained by the discovered "
-                               "terms (not significant beside them): not declared");
-    else
-      kept.push_back(e);
-  }
-  report_->effects = kept;
 }
 
 // The intervals' residuals after, and the held-out RMS, with the terms found.

@@ -125,7 +125,7 @@ double HeadingChains::Rms() const {
 }
 
 HeadingChains ChainHeading(const std::vector<DiscoveryRow>& rows, const std::vector<Eigen::Vector3d>& errors,
-                           double window_s) {
+                           double window_s, int comp) {
   HeadingChains chains;
   double sum = 0, squares = 0;
   int count = 0, total = 0, block = -1;
@@ -145,7 +145,7 @@ HeadingChains ChainHeading(const std::vector<DiscoveryRow>& rows, const std::vec
       block = row.block;
       window_start = row.utime_start;
     }
-    const double yaw = errors[k][2];
+    const double yaw = errors[k][comp];
     sum += yaw;
     ++count;
     squares += yaw * yaw;

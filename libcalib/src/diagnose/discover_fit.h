@@ -45,8 +45,10 @@ Eigen::Vector3d ResidualLeft(const DiscoveryRow& row, const DesignColumns& colum
 double HeldoutScore(const std::vector<DiscoveryRow>& rows, const DesignColumns& without, int added,
                     const LinearFit& fit_without, int hac_lags);
 
-// Chained heading errors of held-out rows over windows of `window_s` within a held-out block
-// (outliers already left out): each window's sum of yaw errors and its number of rows.
+// Chained errors of held-out rows over windows of `window_s` within a held-out block (outliers
+// already left out): each window's sum of the errors' component `comp` (2: yaw, the heading
+// error; 0, 1: x, y summed in each interval's own frame, to first order the chained distance
+// error) and its number of rows.
 struct HeadingChains {
   std::vector<double> sums;
   std::vector<int> counts;
@@ -54,7 +56,7 @@ struct HeadingChains {
   double Rms() const;
 };
 HeadingChains ChainHeading(const std::vector<DiscoveryRow>& rows, const std::vector<Eigen::Vector3d>& errors,
-                           double window_s);
+                           double window_s, int comp = 2);
 
 // Newey-West long-run variance of the per-row vectors `u` (in time order) with `lags`.
 Eigen::MatrixXd LongRunVariance(const std::vector<Eigen::VectorXd>& u, int lags);
