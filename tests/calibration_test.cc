@@ -361,16 +361,10 @@ TEST(HeldoutWindows, CalibratedBeatsNominalOnSimulatedHeldOutHalf) {
   EXPECT_EQ(h.halves->dof, 6);
 }
 
-// A recording whose second half comes from the robot with a 3 % longer wheelbase (another
-// load, say): the halves' own fits disagree far beyond their sigmas, and say where.
-TEST(HeldoutWindows, HalvesOfAChangedRobotDisagree) {
-  SimConfig changed = PoseSim("forklift", 6);
-  changed.true_params["wheelbase"] *= 1.03;
-  const SimConfig original = PoseSim("forklift", 5);
-  const CalibrationData first = Record(original, "default"), second = Record(changed, "default");
-  // The second recording follows the first one 1 s after its end, with no motion across the joint.
+// `second` following `first` 1 s after its end, with no motion across the joint.
+CalibrationData Spliced(const RobotDescription& robot, const CalibrationData& first, const CalibrationData& second) {
   const int64_t shift = first.wheels().last_utime() + 1'000'000 - second.wheels().first_utime();
-  CalibrationData spliced(original.robot);
+  CalibrationData spliced(robot);
   for (std::size_t i = 0; i < first.wheels().size(); ++i) spliced.AddWheels(first.wheels().sample(i));
   for (std::size_t i = 0; i < second.wheels().size(); ++i) {
     WheelSample w = second.wheels().sample(i);
@@ -383,6 +377,17 @@ TEST(HeldoutWindows, HalvesOfAChangedRobotDisagree) {
     m.utime_end += shift;
     spliced.AddMotion(m);
   }
+  return spliced;
+}
+
+// A recording whose second half comes from the robot with a 3 % longer wheelbase (another
+// load, say): the halves' own fits disagree far beyond their sigmas, and say where.
+TEST(HeldoutWindows, HalvesOfAChangedRobotDisagree) {
+  SimConfig changed = PoseSim("forklift", 6);
+  changed.true_params["wheelbase"] *= 1.03;
+  const SimConfig original = PoseSim("forklift", 5);
+  const CalibrationData first = Record(original, "default"), second = Record(changed, "default");
+  const CalibrationData spliced = Spliced(original.robot, first, second);
   CalibrationOptions options;
   options.fit_fraction = 0.5;
   const CalibrationResult r =
@@ -401,20 +406,7 @@ TEST(HeldoutWindows, HalvesOfAChangedRobotDisagree) {
 TEST(HeldoutWindows, HalvesAreNotComparedOnAValueTheHeldOutHalfCannotDetermine) {
   const SimConfig config = PoseSim("diff_robot", 7);
   const CalibrationData turning = Record(config, "default"), straight = Record(config, "straight");
-  const int64_t shift = turning.wheels().last_utime() + 1'000'000 - straight.wheels().first_utime();
-  CalibrationData spliced(config.robot);
-  for (std::size_t i = 0; i < turning.wheels().size(); ++i) spliced.AddWheels(turning.wheels().sample(i));
-  for (std::size_t i = 0; i < straight.wheels().size(); ++i) {
-    WheelSample w = straight.wheels().sample(i);
-    w.utime += shift;
-    spliced.AddWheels(w);
-  }
-  for (const SensorMotion& m : turning.motions()) spliced.AddMotion(m);
-  for (SensorMotion m : straight.motions()) {
-    m.utime_start += shift;
-    m.utime_end += shift;
-    spliced.AddMotion(m);
-  }
+  const CalibrationData spliced = Spliced(config.robot, turning, straight);
   CalibrationOptions options;
   // The fit half ends where the straight drive begins.
   options.fit_fraction = double(turning.motions().size()) / double(spliced.motions().size());
