@@ -620,8 +620,8 @@ TEST(ImportTest, PoseCsvGrammar) {
 
 TEST(ImportTest, DispatchChecksFormatAndRobot) {
   MemorySink sink;
-  ExpectInputError([&] { Import("rosbag", "x", nullptr, &sink); }, "command line", -1,
-                   "unknown format 'rosbag' (known: carmen, mines, lego, optiodom, pose-csv)");
+  ExpectInputError([&] { Import("bagfile", "x", nullptr, &sink); }, "command line", -1,
+                   "unknown format 'bagfile' (known: carmen, mines, lego, optiodom, pose-csv, rosbag2, rosbag)");
   ExpectInputError([&] { Import("mines", "x", nullptr, &sink); }, "command line", -1,
                    "--robot config/robots/datasets/mines_rover.yaml");
   const RobotDescription robot = DatasetRobot("mines_rover.yaml");

@@ -137,9 +137,14 @@ StartingCalibrations Diagnoser::Calibrations() {
       cal_plain = WithCandidateInside(*cal_offset, *refused);
     }
   }
-  if (cal_offset->time_offset_bound_s > recording_.max_offset_s) {
+  // The diagnosis fits the offset near the calibration's, within kMaxOffsetS of it: a short
+  // recording keeps the intervals a two-second margin would cost, and a small offset is not
+  // searched across two seconds, where a scan period away from it lies another minimum.
+  const double found_s = cal_offset->time_offset ? std::abs(cal_offset->time_offset->value) : 0.0;
+  const double wanted_s = std::min(cal_offset->time_offset_bound_s, found_s + kMaxOffsetS);
+  if (wanted_s > recording_.max_offset_s) {
     // The intervals again, with room for the wider offset on the wheel data.
-    recording_.max_offset_s = cal_offset->time_offset_bound_s;
+    recording_.max_offset_s = wanted_s;
     BuildIntervals(robot_, data_, options_.block_s, origin_, &recording_);
   }
   return {std::move(*cal_plain), std::move(*cal_offset)};

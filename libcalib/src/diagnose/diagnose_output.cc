@@ -106,59 +106,55 @@ const char* CandidateStatusName(CandidateStatus status) {
   return "not_significant";
 }
 
-std::string DiagnoseReportJson(const DiagnoseReport& r) {
-  nlohmann::json j;
-  const int64_t origin = ReportTimeOrigin(r);
-  j["verdict"] = r.verdict;
-  j["drive"] = DriveTypeName(r.drive);
-  j["time_origin_utime"] = origin;  // t_*_s keys count seconds from here: the recording's first message
-  j["effects"] = nlohmann::json::array();
-  for (const FoundEffect& e : r.effects) {
-    nlohmann::json je = {{"name", e.name}, {"layer", e.layer}, {"params", Params(e.params)}};
-    if (!e.wheel.empty()) je["wheel"] = e.wheel;
-    je["evidence"] = {{"delta_bic", Number(e.delta_bic)}, {"p_value", Number(e.p_adjusted)},
-                      {"p_value_unadjusted", Number(e.p_value)}, {"wald", Number(e.wald)}};
-    je["heldout_rms_before"] = Number(e.heldout_rms_before);
-    je["heldout_rms_after"] = Number(e.heldout_rms_after);
-    je["heldout_rms_all_before"] = Number(e.heldout_rms_all_before);
-    je["heldout_rms_all_after"] = Number(e.heldout_rms_all_after);
-    je["heldout_component"] = e.component;
-    if (!e.drift_component.empty())
-      je["heldout_drift"] = {{"component", e.drift_component}, {"window_s", e.drift_window_s},
-                             {"windows", e.drift_windows}, {"rms_before", Number(e.heldout_drift_before)},
-                             {"rms_after", Number(e.heldout_drift_after)}};
-    if (!e.stretches.empty()) {
-      nlohmann::json per = nlohmann::json::array();
-      for (const HeldoutStretch& h : e.stretches)
-        per.push_back({{"utime_start", h.utime_start}, {"utime_end", h.utime_end},
-                       {"t_start_s", Since(h.utime_start, origin)}, {"t_end_s", Since(h.utime_end, origin)},
-                       {"before", Number(h.before)}, {"after", Number(h.after)}});
-      je["heldout_stretch"] = {{"component", e.component}, {"stretches", e.stretches.size()},
-                               {"rms_before", Number(e.heldout_stretch_before)},
-                               {"rms_after", Number(e.heldout_stretch_after)}, {"per_stretch", per}};
-    }
-    je["heldout_measure"] = e.heldout_measure;
-    if (e.heldout_disagrees) je["heldout_disagrees"] = {{"confirmed_by", e.heldout_confirmed_by}};
-    je["where"] = Spans(e.where, origin);
-    if (e.region) je["region"] = {(*e.region)[0], (*e.region)[1], (*e.region)[2], (*e.region)[3]};
-    je["regime"] = e.regime;
-    je["signature"] = {{"regressor", e.regressor}, {"component", e.signature_component}, {"bins", nlohmann::json::array()}};
-    for (const SignatureBin& b : e.signature)
-      je["signature"]["bins"].push_back({{"x", b.x}, {"before", b.before}, {"after", b.after},
-                                         {"std_error", b.std_error}, {"count", b.count}});
-    j["effects"].push_back(je);
+namespace {
+
+// One found effect of REPORT.json `effects` (spec/cli.md).
+nlohmann::json EffectJson(const FoundEffect& e, int64_t origin) {
+  nlohmann::json je = {{"name", e.name}, {"layer", e.layer}, {"params", Params(e.params)}};
+  if (!e.wheel.empty()) je["wheel"] = e.wheel;
+  je["evidence"] = {{"delta_bic", Number(e.delta_bic)}, {"p_value", Number(e.p_adjusted)},
+                    {"p_value_unadjusted", Number(e.p_value)}, {"wald", Number(e.wald)}};
+  je["heldout_rms_before"] = Number(e.heldout_rms_before);
+  je["heldout_rms_after"] = Number(e.heldout_rms_after);
+  je["heldout_rms_all_before"] = Number(e.heldout_rms_all_before);
+  je["heldout_rms_all_after"] = Number(e.heldout_rms_all_after);
+  je["heldout_component"] = e.component;
+  if (!e.drift_component.empty())
+    je["heldout_drift"] = {{"component", e.drift_component}, {"window_s", e.drift_window_s},
+                           {"windows", e.drift_windows}, {"rms_before", Number(e.heldout_drift_before)},
+                           {"rms_after", Number(e.heldout_drift_after)}};
+  if (!e.stretches.empty()) {
+    nlohmann::json per = nlohmann::json::array();
+    for (const HeldoutStretch& h : e.stretches)
+      per.push_back({{"utime_start", h.utime_start}, {"utime_end", h.utime_end},
+                     {"t_start_s", Since(h.utime_start, origin)}, {"t_end_s", Since(h.utime_end, origin)},
+                     {"before", Number(h.before)}, {"after", Number(h.after)}});
+    je["heldout_stretch"] = {{"component", e.component}, {"stretches", e.stretches.size()},
+                             {"rms_before", Number(e.heldout_stretch_before)},
+                             {"rms_after", Number(e.heldout_stretch_after)}, {"per_stretch", per}};
   }
-  j["unexplained"] = nlohmann::json::array();
-  for (const Unexplained& u : r.unexplained)
-    j["unexplained"].push_back({{"where", Spans(u.where, origin)}, {"correlates_with", u.correlates_with},
-                                {"p_value", Number(u.p_value)}, {"component", u.component}});
-  j["discovered"] = nlohmann::json::array();
+  je["heldout_measure"] = e.heldout_measure;
+  if (e.heldout_disagrees) je["heldout_disagrees"] = {{"confirmed_by", e.heldout_confirmed_by}};
+  je["where"] = Spans(e.where, origin);
+  if (e.region) je["region"] = {(*e.region)[0], (*e.region)[1], (*e.region)[2], (*e.region)[3]};
+  je["regime"] = e.regime;
+  je["signature"] = {{"regressor", e.regressor}, {"component", e.signature_component}, {"bins", nlohmann::json::array()}};
+  for (const SignatureBin& b : e.signature)
+    je["signature"]["bins"].push_back({{"x", b.x}, {"before", b.before}, {"after", b.after},
+                                       {"std_error", b.std_error}, {"count", b.count}});
+  return je;
+}
+
+// What the selection decided beyond the effects found: discovered terms, the misfit, pairs it
+// cannot tell apart, borderline decisions and effects that moved.
+void AddDecisionSections(const DiagnoseReport& r, int64_t origin, nlohmann::json* j) {
+  (*j)["discovered"] = nlohmann::json::array();
   for (const Discovered& d : r.discovered) {
     nlohmann::json terms = nlohmann::json::array();
     for (const DiscoveredTerm& t : d.terms)
       terms.push_back({{"regressor", t.regressor}, {"unit", t.unit},
                        {"coefficient", {{"value", Number(t.coefficient.value)}, {"std", Number(t.coefficient.std)}}}});
-    j["discovered"].push_back(
+    (*j)["discovered"].push_back(
         {{"channel", d.channel}, {"terms", terms}, {"equation", d.equation}, {"interpretation", d.interpretation},
          {"evidence", {{"p_value", Number(d.p_adjusted)}, {"p_value_unadjusted", Number(d.p_value)},
                        {"wald", Number(d.wald)}, {"delta_bic", Number(d.delta_bic)}}},
@@ -168,29 +164,64 @@ std::string DiagnoseReportJson(const DiagnoseReport& r) {
                             {"rms_before", Number(d.heldout_drift_before)}, {"rms_after", Number(d.heldout_drift_after)}}},
          {"where", Spans(d.where, origin)}});
   }
-  j["misfit"] = {{"variance_factor", Number(r.misfit.variance_factor)},
+  (*j)["misfit"] = {{"variance_factor", Number(r.misfit.variance_factor)},
                  {"heading_drift_ratio", Number(r.misfit.heading_drift_ratio)}, {"beyond", r.misfit.beyond}};
-  j["indistinguishable"] = nlohmann::json::array();
+  (*j)["indistinguishable"] = nlohmann::json::array();
   for (const Indistinguishable& d : r.indistinguishable)
-    j["indistinguishable"].push_back({{"effects", {d.first, d.second}}, {"correlation", Number(d.correlation)},
+    (*j)["indistinguishable"].push_back({{"effects", {d.first, d.second}}, {"correlation", Number(d.correlation)},
                                       {"separating_motion", d.motion}});
-  j["borderline"] = nlohmann::json::array();
+  (*j)["borderline"] = nlohmann::json::array();
   for (const Borderline& b : r.borderline) {
     nlohmann::json jb = {{"name", b.name}, {"status", CandidateStatusName(b.status)}, {"p_value", Number(b.p_value)},
                          {"alpha", Number(b.alpha)}, {"heldout_change", Number(b.heldout_change)},
                          {"heldout_confirmed", b.heldout_confirmed}};
     if (!b.wheel.empty()) jb["wheel"] = b.wheel;
-    j["borderline"].push_back(jb);
+    (*j)["borderline"].push_back(jb);
   }
-  j["moved"] = nlohmann::json::array();
+  (*j)["moved"] = nlohmann::json::array();
   for (const MovedEffect& m : r.moved) {
     nlohmann::json jm = {{"name", m.name},
                          {"alone", {{"value", Number(m.alone.value)}, {"std", Number(m.alone.std)}}},
                          {"with_others", {{"value", Number(m.with_others.value)}, {"std", Number(m.with_others.std)}}},
                          {"others", m.others}};
     if (!m.wheel.empty()) jm["wheel"] = m.wheel;
-    j["moved"].push_back(jm);
+    (*j)["moved"].push_back(jm);
   }
+}
+
+nlohmann::json IntervalsJson(const DiagnoseReport& r) {
+  nlohmann::json iv = nlohmann::json::array();
+  for (const DiagnosedInterval& d : r.intervals) {
+    const MotionConditions& m = d.motion;
+    iv.push_back({{"utime_start", d.utime_start}, {"utime_end", d.utime_end}, {"heldout", d.heldout},
+                  {"outlier", d.outlier},
+                  {"before", {d.before[0], d.before[1], d.before[2]}},
+                  {"after", {d.after[0], d.after[1], d.after[2]}},
+                  {"sigma", {d.sigma[0], d.sigma[1], d.sigma[2]}},
+                  {"motion", {{"speed", m.speed}, {"accel", m.accel}, {"turn_rate", m.turn_rate},
+                              {"turn_accel", m.turn_accel}, {"centripetal", m.centripetal},
+                              {"steer", m.steer}, {"steer_rate", m.steer_rate},
+                              {"steer_direction", m.steer_direction}, {"route_m", m.route_m},
+                              {"x", m.x}, {"y", m.y}}}});
+  }
+  return iv;
+}
+
+}  // namespace
+
+std::string DiagnoseReportJson(const DiagnoseReport& r) {
+  nlohmann::json j;
+  const int64_t origin = ReportTimeOrigin(r);
+  j["verdict"] = r.verdict;
+  j["drive"] = DriveTypeName(r.drive);
+  j["time_origin_utime"] = origin;  // t_*_s keys count seconds from here: the recording's first message
+  j["effects"] = nlohmann::json::array();
+  for (const FoundEffect& e : r.effects) j["effects"].push_back(EffectJson(e, origin));
+  j["unexplained"] = nlohmann::json::array();
+  for (const Unexplained& u : r.unexplained)
+    j["unexplained"].push_back({{"where", Spans(u.where, origin)}, {"correlates_with", u.correlates_with},
+                                {"p_value", Number(u.p_value)}, {"component", u.component}});
+  AddDecisionSections(r, origin, &j);
   j["candidates"] = nlohmann::json::array();
   for (const CandidateOutcome& c : r.candidates) {
     nlohmann::json jc = {{"name", c.name}, {"layer", c.layer}, {"status", CandidateStatusName(c.status)},
@@ -220,21 +251,7 @@ std::string DiagnoseReportJson(const DiagnoseReport& r) {
   j["notes"] = r.notes;
   if (!r.warnings.empty()) j["warnings"] = r.warnings;
   if (r.input_dropped > 0) j["input"] = {{"dropped", r.input_dropped}, {"notes", r.input_notes}};
-  nlohmann::json iv = nlohmann::json::array();
-  for (const DiagnosedInterval& d : r.intervals) {
-    const MotionConditions& m = d.motion;
-    iv.push_back({{"utime_start", d.utime_start}, {"utime_end", d.utime_end}, {"heldout", d.heldout},
-                  {"outlier", d.outlier},
-                  {"before", {d.before[0], d.before[1], d.before[2]}},
-                  {"after", {d.after[0], d.after[1], d.after[2]}},
-                  {"sigma", {d.sigma[0], d.sigma[1], d.sigma[2]}},
-                  {"motion", {{"speed", m.speed}, {"accel", m.accel}, {"turn_rate", m.turn_rate},
-                              {"turn_accel", m.turn_accel}, {"centripetal", m.centripetal},
-                              {"steer", m.steer}, {"steer_rate", m.steer_rate},
-                              {"steer_direction", m.steer_direction}, {"route_m", m.route_m},
-                              {"x", m.x}, {"y", m.y}}}});
-  }
-  j["intervals"] = iv;
+  j["intervals"] = IntervalsJson(r);
   AddProvenance(&j);
   return j.dump(1) + "\n";
 }
@@ -273,6 +290,67 @@ std::string DiagnoseVerdict(const DiagnoseReport& r) {
   return verdict;
 }
 
+namespace {
+
+// A discovered term as summary.txt shows it: the equation, its coefficients, reading, evidence
+// and held-out figures.
+void AppendDiscoveredText(const Discovered& d, int64_t origin, std::ostringstream& s) {
+  s << "\nDISCOVERED PHYSICS (not in effects.md), through the " << d.channel << " channel:\n  " << d.equation << "\n";
+  for (const DiscoveredTerm& t : d.terms)
+    s << "  coefficient of " << t.regressor << ": " << EstimateText(t.coefficient.value, t.coefficient.std, t.unit) << "\n";
+  s << "  reading: " << d.interpretation << "\n  evidence: " << PValueText(d.p_adjusted)
+    << " after the correction over the library, delta BIC " << d.delta_bic << "\n  where: " << d.where.size()
+    << " time spans";
+  if (!d.where.empty()) s << ", at " << SpanTimes(d.where, origin) << " (s since the recording's first message)";
+  s << "\n  held-out " << d.component << " residual where it acts: "
+    << BeforeAfter(d.heldout_rms_before, d.heldout_rms_after, ComponentUnit(d.component)) << " ("
+    << Percent(d.heldout_rms_before, d.heldout_rms_after) << " lower); held-out heading error over "
+    << d.drift_window_s << " s (" << d.drift_windows << " windows): "
+    << BeforeAfter(d.heldout_drift_before, d.heldout_drift_after, "rad") << " ("
+    << Percent(d.heldout_drift_before, d.heldout_drift_after) << " lower)\n";
+}
+
+// A found effect as summary.txt shows it; the held-out measure that judges it is marked.
+void AppendEffectText(const FoundEffect& e, int64_t origin, std::ostringstream& s) {
+  // The held-out measure that judges the effect is marked.
+  auto judges = [&e](const char* measure) { return e.heldout_measure == measure ? "  <- judges it\n" : "\n"; };
+  s << "\nMISSING PHYSICS: " << e.name << (e.wheel.empty() ? "" : " (wheel " + e.wheel + ")") << ", "
+    << e.layer << " layer.\n  size:";
+  for (const auto& [k, v] : e.params) s << " " << k << " = " << EstimateText(v.value, v.std, ParamUnit(k));
+  s << "\n  evidence: " << PValueText(e.p_adjusted) << " after the catalogue-wide correction";
+  if (e.delta_bic != 0) s << ", delta BIC " << e.delta_bic;
+  s << "\n  where: " << e.where.size() << " time spans, " << e.regime << "\n";
+  if (!e.where.empty())
+    s << "  at " << SpanTimes(e.where, origin) << " (s since the recording's first message)\n";
+  if (e.region)
+    s << "  on the floor: x " << (*e.region)[0] << " to " << (*e.region)[2] << " m, y " << (*e.region)[1] << " to "
+      << (*e.region)[3] << " m (odometry frame)\n";
+  s << "  held-out " << e.component << " residual where it acts: "
+    << BeforeAfter(e.heldout_rms_before, e.heldout_rms_after, ComponentUnit(e.component)) << " ("
+    << Percent(e.heldout_rms_before, e.heldout_rms_after) << " lower); over all held-out data "
+    << BeforeAfter(e.heldout_rms_all_before, e.heldout_rms_all_after, ComponentUnit(e.component)) << " ("
+    << Percent(e.heldout_rms_all_before, e.heldout_rms_all_after) << ")" << judges("per_interval");
+  if (!e.stretches.empty()) {
+    s << "  held-out " << e.component << " error chained over the stretch of each held-out block where it acts most ("
+      << e.stretches.size() << " stretches): "
+      << BeforeAfter(e.heldout_stretch_before, e.heldout_stretch_after, ComponentUnit(e.component)) << " ("
+      << Percent(e.heldout_stretch_before, e.heldout_stretch_after) << " lower)" << judges("stretch");
+  }
+  if (!e.drift_component.empty()) {
+    s << "  held-out dead-reckoning " << e.drift_component << " error over " << e.drift_window_s << " s ("
+      << e.drift_windows << " windows): "
+      << BeforeAfter(e.heldout_drift_before, e.heldout_drift_after, ComponentUnit(e.drift_component)) << " ("
+      << Percent(e.heldout_drift_before, e.heldout_drift_after) << " lower)" << judges("drift");
+  }
+  if (e.heldout_disagrees)
+    s << "  held-out proofs disagree: the measure that judges it is not lower with it; "
+      << (e.heldout_confirmed_by.empty() ? "no held-out test confirms it against the final model without it"
+                                         : "the held-out " + e.heldout_confirmed_by + " test confirms it")
+      << "\n";
+}
+
+}  // namespace
+
 std::string DiagnoseSummaryText(const DiagnoseReport& r, bool verbose) {
   std::ostringstream s;
   s.precision(4);
@@ -297,58 +375,8 @@ std::string DiagnoseSummaryText(const DiagnoseReport& r, bool verbose) {
   } else if (r.effects.empty() && r.discovered.empty()) {
     s << "No significant unmodelled physics: the calibrated model explains the recording within its noise.\n";
   }
-  for (const Discovered& d : r.discovered) {
-    s << "\nDISCOVERED PHYSICS (not in effects.md), through the " << d.channel << " channel:\n  " << d.equation << "\n";
-    for (const DiscoveredTerm& t : d.terms)
-      s << "  coefficient of " << t.regressor << ": " << EstimateText(t.coefficient.value, t.coefficient.std, t.unit) << "\n";
-    s << "  reading: " << d.interpretation << "\n  evidence: " << PValueText(d.p_adjusted)
-      << " after the correction over the library, delta BIC " << d.delta_bic << "\n  where: " << d.where.size()
-      << " time spans";
-    if (!d.where.empty()) s << ", at " << SpanTimes(d.where, ReportTimeOrigin(r)) << " (s since the recording's first message)";
-    s << "\n  held-out " << d.component << " residual where it acts: "
-      << BeforeAfter(d.heldout_rms_before, d.heldout_rms_after, ComponentUnit(d.component)) << " ("
-      << Percent(d.heldout_rms_before, d.heldout_rms_after) << " lower); held-out heading error over "
-      << d.drift_window_s << " s (" << d.drift_windows << " windows): "
-      << BeforeAfter(d.heldout_drift_before, d.heldout_drift_after, "rad") << " ("
-      << Percent(d.heldout_drift_before, d.heldout_drift_after) << " lower)\n";
-  }
-  for (const FoundEffect& e : r.effects) {
-    // The held-out measure that judges the effect is marked.
-    auto judges = [&e](const char* measure) { return e.heldout_measure == measure ? "  <- judges it\n" : "\n"; };
-    s << "\nMISSING PHYSICS: " << e.name << (e.wheel.empty() ? "" : " (wheel " + e.wheel + ")") << ", "
-      << e.layer << " layer.\n  size:";
-    for (const auto& [k, v] : e.params) s << " " << k << " = " << EstimateText(v.value, v.std, ParamUnit(k));
-    s << "\n  evidence: " << PValueText(e.p_adjusted) << " after the catalogue-wide correction";
-    if (e.delta_bic != 0) s << ", delta BIC " << e.delta_bic;
-    s << "\n  where: " << e.where.size() << " time spans, " << e.regime << "\n";
-    if (!e.where.empty())
-      s << "  at " << SpanTimes(e.where, ReportTimeOrigin(r)) << " (s since the recording's first message)\n";
-    if (e.region)
-      s << "  on the floor: x " << (*e.region)[0] << " to " << (*e.region)[2] << " m, y " << (*e.region)[1] << " to "
-        << (*e.region)[3] << " m (odometry frame)\n";
-    s << "  held-out " << e.component << " residual where it acts: "
-      << BeforeAfter(e.heldout_rms_before, e.heldout_rms_after, ComponentUnit(e.component)) << " ("
-      << Percent(e.heldout_rms_before, e.heldout_rms_after) << " lower); over all held-out data "
-      << BeforeAfter(e.heldout_rms_all_before, e.heldout_rms_all_after, ComponentUnit(e.component)) << " ("
-      << Percent(e.heldout_rms_all_before, e.heldout_rms_all_after) << ")" << judges("per_interval");
-    if (!e.stretches.empty()) {
-      s << "  held-out " << e.component << " error chained over the stretch of each held-out block where it acts most ("
-        << e.stretches.size() << " stretches): "
-        << BeforeAfter(e.heldout_stretch_before, e.heldout_stretch_after, ComponentUnit(e.component)) << " ("
-        << Percent(e.heldout_stretch_before, e.heldout_stretch_after) << " lower)" << judges("stretch");
-    }
-    if (!e.drift_component.empty()) {
-      s << "  held-out dead-reckoning " << e.drift_component << " error over " << e.drift_window_s << " s ("
-        << e.drift_windows << " windows): "
-        << BeforeAfter(e.heldout_drift_before, e.heldout_drift_after, ComponentUnit(e.drift_component)) << " ("
-        << Percent(e.heldout_drift_before, e.heldout_drift_after) << " lower)" << judges("drift");
-    }
-    if (e.heldout_disagrees)
-      s << "  held-out proofs disagree: the measure that judges it is not lower with it; "
-        << (e.heldout_confirmed_by.empty() ? "no held-out test confirms it against the final model without it"
-                                           : "the held-out " + e.heldout_confirmed_by + " test confirms it")
-        << "\n";
-  }
+  for (const Discovered& d : r.discovered) AppendDiscoveredText(d, ReportTimeOrigin(r), s);
+  for (const FoundEffect& e : r.effects) AppendEffectText(e, ReportTimeOrigin(r), s);
   for (const Indistinguishable& d : r.indistinguishable)
     s << "\nINDISTINGUISHABLE: " << d.first << " and " << d.second << " (correlation " << d.correlation
       << "); to tell them apart drive " << d.motion << ".\n";
