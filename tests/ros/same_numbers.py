@@ -1,13 +1,14 @@
 #!/usr/bin/env python3
 """Exit 0 when two RESULT.json files hold the same numbers within a relative tolerance
-(absolute below 1e-12); keys naming the recording ("log", "source") are not compared.
+(absolute below 1e-12); keys naming the recording ("log", "source") and the run ("provenance")
+are not compared.
 
     same_numbers.py A.json B.json TOLERANCE
 """
 import json
 import sys
 
-SKIP = {"log", "source", "recording"}
+SKIP = {"log", "source", "recording", "provenance"}
 
 
 def compare(a, b, tol, path, problems):
