@@ -1,6 +1,7 @@
 #include "common/provenance.h"
 
 #include <openssl/evp.h>
+#include <sys/stat.h>
 #include <unistd.h>
 
 #include <cstdlib>
@@ -47,7 +48,13 @@ void RecordProvenance(const CommandLine& args, const calib::RobotDescription* ro
   std::strftime(date, sizeof date, "%Y-%m-%dT%H:%M:%SZ", &utc);
   p.date = date;
   if (robot) p.robot_name = robot->name, p.robot_file = robot->source_file;
-  if (!recording.empty()) p.recording = recording, p.recording_sha256 = FileSha256(recording);
+  if (!recording.empty()) {
+    p.recording = recording;
+    // Only a regular file is hashed: reading a FIFO or a device again would block or take the
+    // data the command itself reads, so their provenance names them without a hash.
+    struct stat st {};
+    if (stat(recording.c_str(), &st) == 0 && S_ISREG(st.st_mode)) p.recording_sha256 = FileSha256(recording);
+  }
   calib::SetRunProvenance(p);
 }
 
