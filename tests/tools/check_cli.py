@@ -76,16 +76,18 @@ def help_options(name, argv):
     return options
 
 
+def build_version(version):
+    """The project version and, in a git checkout, git describe of the tree (cmake/version.cmake)."""
+    r = subprocess.run(["git", "describe", "--always", "--dirty", "--tags"], cwd=SRC, capture_output=True, text=True)
+    return "%s (git %s)" % (version, r.stdout.strip()) if r.returncode == 0 and r.stdout.strip() else version
+
+
 def check_version_and_errors(name, argv, version):
     r = run(argv, "--version")
     if r.returncode != 0 or r.stdout != "%s %s\n" % (name, version):
         fail("%s --version: exit %d, %r (expected '%s %s')" % (name, r.returncode, r.stdout, name, version))
 
 
-def build_version(version):
-    """The project version and, in a git checkout, git describe of the tree (cmake/version.cmake)."""
-    r = subprocess.run(["git", "describe", "--always", "--dirty", "--tags"], cwd=SRC, capture_output=True, text=True)
-    return "%s (git %s)" % (version, r.stdout.strip()) if r.returncode == 0 and r.stdout.strip() else version
     r = run(argv, "--no-such-option")
     lines = r.stderr.splitlines()
     if r.returncode != 2 or len(lines) != 1 or "--no-such-option" not in lines[0] or not lines[0].startswith(name + ":"):
