@@ -86,8 +86,6 @@ def check_version_and_errors(name, argv, version):
     r = run(argv, "--version")
     if r.returncode != 0 or r.stdout != "%s %s\n" % (name, version):
         fail("%s --version: exit %d, %r (expected '%s %s')" % (name, r.returncode, r.stdout, name, version))
-
-
     r = run(argv, "--no-such-option")
     lines = r.stderr.splitlines()
     if r.returncode != 2 or len(lines) != 1 or "--no-such-option" not in lines[0] or not lines[0].startswith(name + ":"):
