@@ -276,6 +276,12 @@ std::string DiagnoseVerdict(const DiagnoseReport& r) {
     if (r.effects.size() > 1)
       verdict += " " + std::to_string(r.effects.size() - 1) + " more effect" + (r.effects.size() > 2 ? "s" : "") +
                  " below.";
+  } else if (!r.discovered.empty()) {
+    verdict = "The robot carries physics outside the catalogue (DISCOVERED PHYSICS below: " + r.discovered.front().equation +
+              "): find its cause, or let the simulator reproduce it (diagnose --write-sim).";
+  } else if (r.misfit.beyond) {
+    verdict = "The calibrated model does not fit this recording (UNMODELLED STRUCTURE below) and nothing the diagnosis "
+              "knows explains it: do not trust the calibration's sigmas.";
   } else if (!r.unexplained.empty()) {
     verdict = "The residual holds structure no catalogued effect explains (UNEXPLAINED below): find its cause before "
               "trusting the calibration's sigmas.";
