@@ -112,12 +112,13 @@ wait_ready() {
 }
 # stop PID NAME: SIGINT to PID and its exit status, once it has ended; a failed check naming
 # NAME if it is still running 60 s later (then killed).
+# Polled from this shell: a watchdog subshell killed before it had reset its traps would run
+# this test's EXIT trap (bash does), which kills the test's processes and removes $TMP.
 stop() {
   kill -INT "$1" 2>/dev/null
-  ( trap - EXIT; sleep 60; kill -9 "$1" ) >/dev/null 2>&1 & local watchdog=$!  # not the test's EXIT trap
-  wait "$1"; local status=$?
-  kill "$watchdog" 2>/dev/null; wait "$watchdog" 2>/dev/null
-  [ "$status" -ne 137 ] || fail "$2 still running 60 s after SIGINT (killed)"
-  return "$status"
+  local until=$((SECONDS + 60))
+  while kill -0 "$1" 2>/dev/null && [ "$SECONDS" -lt "$until" ]; do sleep 0.1; done
+  kill -0 "$1" 2>/dev/null && { kill -9 "$1"; fail "$2 still running 60 s after SIGINT (killed)"; }
+  wait "$1"
 }
 finish() { echo "checks: $passes passed, $fails failed"; [ "$fails" -eq 0 ]; exit $?; }
