@@ -20,6 +20,10 @@ namespace calib {
 // page and summary.txt.
 std::string SolveVerdict(const CalibrationResult& result);
 
+// The calibration as the console shows it (`agvcal solve`, and agvcal-solver at its end): the
+// residual RMS, then one row per value with its sigma, unit and nominal value, the weak ones.
+std::string CalibrationConsoleText(const CalibrationResult& result);
+
 // The text of summary.txt (also the top of index.html): the verdict, then the figures.
 std::string SolveReportSummary(const CalibrationResult& result, const std::string& log_path);
 
