@@ -138,8 +138,8 @@ int Solve(int argc, char** argv) {
   std::printf("%s", calib::CalibrationConsoleText(result).c_str());
   if (result.heldout) {
     const calib::HeldoutComparison& h = *result.heldout;
-    std::printf("held-out odometry error per metre: nominal %.4f m/m, calibrated %.4f m/m (%d windows of %.2f m)\n",
-                h.nominal.error_per_metre, h.calibrated.error_per_metre, h.calibrated.windows, h.window_m);
+    std::printf("held-out odometry error per metre: nominal %.2f mm/m, calibrated %.2f mm/m (%d windows of %.2f m)\n",
+                h.nominal.error_per_metre * 1e3, h.calibrated.error_per_metre * 1e3, h.calibrated.windows, h.window_m);
     std::printf("  calibrated better in %d of %d windows (sign test %s); end error %+.4f ± %.4f m\n",
                 h.paired.second_better, h.paired.windows - h.paired.ties, calib::PValueText(h.paired.sign_test_p).c_str(),
                 h.paired.mean_difference, h.paired.difference_sem);

@@ -20,9 +20,9 @@ using calib::Glyphs;
 enum Color { kPlain = 0, kGood = 1, kWarn = 2, kBad = 3, kTitle = 4 };
 
 const char* kComponentNames[3] = {"x", "y", "yaw"};
-// Residuals are shown in mm and degrees.
-const double kComponentScale[3] = {1e3, 1e3, 180.0 / M_PI};
-const char* kComponentUnits[3] = {"mm", "mm", "deg"};
+// Residuals are shown in mm and mrad, as on the console and the reports (docs/units.md).
+const double kComponentScale[3] = {1e3, 1e3, 1e3};
+const char* kComponentUnits[3] = {"mm", "mm", "mrad"};
 
 bool g_color = false;
 

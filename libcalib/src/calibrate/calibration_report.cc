@@ -316,11 +316,16 @@ std::string SolveVerdict(const CalibrationResult& r) {
          "): record a longer run to tell, or write it if its changes matter to you.";
 }
 
+std::string MilliradiansText(double radians, int significant) {
+  return SignificantText(radians * 1e3, significant) + " mrad (" + SignificantText(radians * 180 / M_PI, significant) +
+         " deg)";
+}
+
 std::string CalibrationConsoleText(const CalibrationResult& r) {
   std::ostringstream s;
   s << DriveTypeName(r.drive) << " drive, " << r.residual.intervals << " intervals (" << r.residual.outliers
     << " outliers), residual rms x " << MillimetresText(r.residual.rms_x) << ", y " << MillimetresText(r.residual.rms_y)
-    << ", yaw " << AngleText(r.residual.rms_yaw) << "\n";
+    << ", yaw " << MilliradiansText(r.residual.rms_yaw) << "\n";
   s << Formatted("  %-20s %-48s %s\n", "parameter", "estimate ± 1 sigma", "(nominal: the robot file)");
   for (const auto& [name, e] : Estimates(r)) {
     const std::string unit = ParamUnit(name);
@@ -351,8 +356,7 @@ std::string SolveReportSummary(const CalibrationResult& r, const std::string& lo
     << r.residual.intervals << " intervals fitted, " << r.residual.outliers << " outliers set aside";
   if (r.heldout) s << ", " << r.heldout->intervals << " held out";
   s << ".\nResidual RMS of the fitted inliers: x " << FixedDecimals(r.residual.rms_x * 1e3, 2) << " mm, y "
-    << FixedDecimals(r.residual.rms_y * 1e3, 2) << " mm, yaw " << FixedDecimals(r.residual.rms_yaw * 1e3, 3) << " mrad ("
-    << FixedDecimals(r.residual.rms_yaw * 180 / M_PI, 4) << " deg).\n";
+    << FixedDecimals(r.residual.rms_y * 1e3, 2) << " mm, yaw " << MilliradiansText(r.residual.rms_yaw) << ".\n";
   for (const auto& row : ParameterRows(r)) s << "  " << row[0] << " = " << row[1] << " (" << row[2] << ")\n";
   s << ObservabilityText(r) << "\n";
   if (r.heldout)
