@@ -376,17 +376,18 @@ def evidence_svg(robots, result):
     ax.set_xlim(-0.6, max(len(ids), 1) - 0.4)
     ax.set_xticks(range(len(ids)))
     ax.set_xticklabels(ids, rotation=90, fontsize=min(12, max(6, 560 // max(len(ids), 1))))
+    ax.set_xlabel("robot, in the order of the table", fontsize=12)
     ax.axhline(thr, color="#d62728", linestyle=(0, (5, 3)), linewidth=1)
-    ax.text(0.01, thr + 0.2, f"alarm threshold (alpha {result['alpha']:g})", color="#d62728", fontsize=10,
-            transform=ax.get_yaxis_transform())
+    ax.text(0.99, thr + 0.3, f"alarm threshold (alpha {result['alpha']:g})", color="#d62728", fontsize=10,
+            ha="right", transform=ax.get_yaxis_transform())
     mpl_value_axis(ax, 0, 13, "-log10 adjusted p")
-    ax.set_title("strongest evidence of a change per robot, in the order of the table", loc="left", fontsize=13)
+    ax.set_title("strongest evidence of a change per robot", loc="left", fontsize=13)
     return mpl_svg(fig)
 
 
 def evidence_height(ids):
     """The evidence chart's height in px: room for the longest name, written upwards."""
-    return 160 + 7 * max((len(r) for r in ids), default=0)
+    return 170 + 7 * max((len(r) for r in ids), default=0)
 
 
 def mpl_axes(width, height):
@@ -397,7 +398,7 @@ def mpl_axes(width, height):
     matplotlib.rcParams["svg.hashsalt"] = "agvcal"
     matplotlib.rcParams["font.family"] = "sans-serif"
     matplotlib.rcParams["svg.fonttype"] = "none"  # text as text: names a page can search
-    fig = Figure(figsize=(width / 100, height / 100), dpi=100)
+    fig = Figure(figsize=(width / 72, height / 72), dpi=72)  # 1 pt = 1 px: font sizes as the reports' px
     ax = fig.add_subplot()
     for side in ax.spines.values():
         side.set_color("#444")
