@@ -18,7 +18,7 @@ import re
 
 from . import analyze as an
 from . import stats
-from .svg import Plot, ticks
+from .svg import Plot, date_ticks, ticks
 
 # The reports' one stylesheet, the C++ reports' too (their pages embed it at build time).
 STYLE_FILE = os.path.join(os.path.dirname(os.path.abspath(__file__)), "..", "..", "libcalib", "src", "io",
@@ -473,11 +473,16 @@ def fleet_effect_svg(robots, f, xlo, xhi):
                 weeks[w] = (n + 1, k + (key in r.effects))
     xs = sorted(weeks)
     share = [100.0 * weeks[w][1] / weeks[w][0] for w in xs]
-    p = Plot(title=f"{key}: share of the week's recordings in which it is found", ylabel="%",
-             xlo=xlo - 3, xhi=xhi + 4, ylo=0, yhi=max(share + [10]) * 1.1)
-    for w, v in zip(xs, share):
-        p.raw(f'<rect x="{p.X(w) + 1:.1f}" y="{p.Y(v):.1f}" width="{max(1.0, p.X(w + 7) - p.X(w) - 2):.1f}" '
-              f'height="{p.Y(0) - p.Y(v):.1f}" fill="#6a3d9a" fill-opacity="0.75"><title>week of '
-              f'{an.date(w * an.DAY_US)}: {weeks[w][1]} of {weeks[w][0]}</title></rect>')
-    p.vline(f["first_utime"] / an.DAY_US, color="#d62728", label="appears")
-    return p.render()
+    # A bar chart: matplotlib's, with the fleet's date ticks (svg.date_ticks) and the reports' value ticks.
+    fig, ax = mpl_axes(width=640, height=200)
+    ax.bar(xs, share, width=6.6, align="edge", color="#6a3d9a", alpha=0.75)
+    ax.set_xlim(xlo - 3, xhi + 4)
+    marks = date_ticks(xlo - 3, xhi + 4)
+    ax.set_xticks([x for x, _ in marks])
+    ax.set_xticklabels([t for _, t in marks])
+    onset = f["first_utime"] / an.DAY_US
+    ax.axvline(onset, color="#d62728", linestyle=(0, (4, 3)), linewidth=1.2)
+    ax.text(onset, 0.97, " appears", color="#d62728", fontsize=10, va="top", transform=ax.get_xaxis_transform())
+    mpl_value_axis(ax, 0, max(share + [10]) * 1.1, "% of the week's recordings")
+    ax.set_title(f"{key}: share of the week's recordings in which it is found", loc="left", fontsize=13)
+    return mpl_svg(fig)
