@@ -11,7 +11,7 @@ packages=(build-essential cmake pkg-config ccache git iproute2 util-linux procps
   liblcm-dev liblcm-bin libglib2.0-dev libeigen3-dev libceres-dev libyaml-cpp-dev
   nlohmann-json3-dev libssl-dev libcli11-dev libgtest-dev libncurses-dev zlib1g-dev libpcl-dev tmux supervisor
   clang libclang-rt-14-dev
-  python3-distributed python3-scipy python3-yaml python3-psycopg2 postgresql chromium
+  python3-distributed python3-scipy python3-yaml python3-psycopg2 postgresql chromium python3-matplotlib
   libsqlite3-dev libzstd-dev liblz4-dev libssl-dev liburdfdom-dev nodejs
   python3-rosbag python3-sensor-msgs python3-nav-msgs python3-geometry-msgs python3-tf2-msgs)
 sudo=""

@@ -307,5 +307,32 @@ TEST(TextPlot, DotPlotAsciiAndBars) {
             (std::vector<std::string>{" █ ", "▄██"}));
 }
 
+// The solver's message (e.g. an unobservable parameter and the motion that determines it) on
+// the dashboard: whole words in lines of the screen's width; a message too long for its rows
+// ends at a word with "...", never cut mid-word or dropped without a sign.
+TEST(TextPlot, WrapWordsKeepsWholeWords) {
+  const std::string message =
+      "track: not determined by this recording (its sigma exceeds its value); drive turns in place "
+      "in both directions to determine the track, then the robot file's value can be replaced";
+  const std::vector<std::string> all = WrapWords(message, 40, 10);
+  std::string joined;
+  for (const std::string& line : all) {
+    EXPECT_LE(Cells(line), 40) << line;
+    joined += (joined.empty() ? "" : " ") + line;
+  }
+  EXPECT_EQ(joined, message);  // every word, in order, none cut
+  const std::vector<std::string> two = WrapWords(message, 40, 2);
+  ASSERT_EQ(two.size(), 2u);
+  EXPECT_EQ(two[0], all[0]);
+  EXPECT_LE(Cells(two[1]), 40);
+  ASSERT_GE(two[1].size(), 3u);
+  EXPECT_EQ(two[1].substr(two[1].size() - 3), "...");
+  const std::string shown = two[1].substr(0, two[1].size() - 3);
+  EXPECT_EQ(message.find(two[0] + " " + shown + " "), 0u) << "the last line ends at a word: " << two[1];
+  EXPECT_EQ(WrapWords("", 40, 2), std::vector<std::string>{""});
+  EXPECT_EQ(WrapWords("short", 40, 1), std::vector<std::string>{"short"});
+  EXPECT_EQ(WrapWords("abcdefghij", 6, 1), std::vector<std::string>{"abcdef"});  // a word longer than a line
+}
+
 }  // namespace
 }  // namespace calib

@@ -17,12 +17,12 @@ void Declare(agvcal_process::CommandLine* args) {
 and rate (from the messages' utime), and messages out of time order or with
 duplicated stamps. A torn event (an lcm-logger killed mid-write) is skipped to the
 next valid event and named ("skipped: bytes B-E ..."), with the span of data lost;
-channel names are shown with unprintable bytes as \xNN. Fails with exit status 2
-on a file that is not an LCM log or a message that does not decode as the type of
-docs/spec/messages.md.)")
+channel names are shown with unprintable bytes as \xNN.)")
       .Positional("LOG", "the recording (lcm-logger)")
       .Flag("--json", "print the summary as JSON (channels with type, count, first and last\n"
-            "utime, rate, out-of-order and duplicated counts)");
+            "utime, rate, out-of-order and duplicated counts)")
+      .Footer("Exit status: 0 listed; 2 not an LCM log, or a message that does not decode as\n"
+              "the type of docs/spec/messages.md; 1 internal error.\n");
 }
 }  // namespace
 

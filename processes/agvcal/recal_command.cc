@@ -36,8 +36,9 @@ there and consistent with the calibration in use (docs/recalibration.md).)")
               "human report (docs/reports.md): the decisions, the calibration in\n"
               "use at the start and the end, every decision's held-out segments,\n"
               "and the residual, route and parameter plots of the last fit")
-      .Footer("Prints one line per decision. Exit status: 0 done (whatever was decided); 2 unusable\n"
-              "input (robot file, config, log).\n");
+      .Footer("Prints one line per decision.\n"
+              "Exit status: 0 done (whatever was decided); 2 unusable input (robot file, config,\n"
+              "log); 1 internal error.\n");
 }
 }  // namespace
 

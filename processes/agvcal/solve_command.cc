@@ -72,17 +72,6 @@ time offset. Prints a summary; RESULT.json follows docs/spec/cli.md.)")
               "parameter (stderr names it and the motion to add); 1 internal error.\n");
 }
 
-// value ± sigma in the parameter's unit (angles: rad with degrees beside), rounded to the sigma.
-void PrintEstimate(const std::string& name, const calib::Estimate& e) {
-  const std::string unit = calib::ParamUnit(name);
-  std::string estimate = calib::EstimateText(e.value, e.std, unit);
-  // Pad to 48 columns counting characters, not bytes ("±" is two bytes in UTF-8).
-  std::size_t width = 0;
-  for (const char c : estimate) width += (static_cast<unsigned char>(c) & 0xC0) != 0x80;
-  estimate += std::string(width < 48 ? 48 - width : 1, ' ');
-  std::printf("  %-20s %s(nominal %.6g%s)\n", name.c_str(), estimate.c_str(), e.nominal,
-              unit.empty() ? "" : (" " + unit).c_str());
-}
 // --write-urdf, --write-tf, --write-controller (calib/calibrate/ros_results.h).
 void WriteRosResults(const agvcal_process::CommandLine& args, const calib::RobotDescription& robot,
                      const calib::CalibrationResult& result, const std::string& log_path,
@@ -146,36 +135,11 @@ int Solve(int argc, char** argv) {
               << " left out of the fit (RESULT.json input.notes)\n";
 
   std::printf("%s\n\n", calib::SolveVerdict(result).c_str());
-  std::printf("%s drive, %d intervals (%d outliers), residual rms x %s, y %s, yaw %s\n",
-              calib::DriveTypeName(result.drive), result.residual.intervals, result.residual.outliers,
-              calib::MillimetresText(result.residual.rms_x).c_str(), calib::MillimetresText(result.residual.rms_y).c_str(),
-              calib::AngleText(result.residual.rms_yaw).c_str());
-  std::printf("  %-20s %-48s %s\n", "parameter", "estimate ± 1 sigma", "(nominal: the robot file)");
-  for (const std::string& name : result.param_names) PrintEstimate(name, result.params.at(name));
-  if (result.imu) {
-    PrintEstimate("imu.gyro_bias", result.imu->gyro_bias);
-    PrintEstimate(result.imu->gyro_scale_estimated ? "imu.gyro_scale" : "imu.gyro_scale(held)",
-                  result.imu->gyro_scale);
-    PrintEstimate("imu.yaw", result.imu->yaw);
-    PrintEstimate("imu.time_offset", result.imu->time_offset);
-    std::printf("  gyro noise %.3g rad/s/sqrt(Hz), wheel heading noise %.3g rad/sqrt(m), distance %.4f m\n",
-                result.imu->gyro_noise, result.imu->wheel_noise, result.imu->distance_m);
-  } else {
-    const std::string mount = calib::MotionSourceName(result.source);
-    PrintEstimate(mount + ".x", result.mount_x);
-    PrintEstimate(mount + ".y", result.mount_y);
-    PrintEstimate(mount + ".yaw", result.mount_yaw);
-  }
-  if (result.time_offset) PrintEstimate("time_offset", *result.time_offset);
-  if (!result.weak.empty()) {
-    std::printf("  weakly determined:");
-    for (const std::string& w : result.weak) std::printf(" %s", w.c_str());
-    std::printf("\n");
-  }
+  std::printf("%s", calib::CalibrationConsoleText(result).c_str());
   if (result.heldout) {
     const calib::HeldoutComparison& h = *result.heldout;
-    std::printf("held-out odometry error per metre: nominal %.4f m/m, calibrated %.4f m/m (%d windows of %.2f m)\n",
-                h.nominal.error_per_metre, h.calibrated.error_per_metre, h.calibrated.windows, h.window_m);
+    std::printf("held-out odometry error per metre: nominal %.2f mm/m, calibrated %.2f mm/m (%d windows of %.2f m)\n",
+                h.nominal.error_per_metre * 1e3, h.calibrated.error_per_metre * 1e3, h.calibrated.windows, h.window_m);
     std::printf("  calibrated better in %d of %d windows (sign test %s); end error %+.4f ± %.4f m\n",
                 h.paired.second_better, h.paired.windows - h.paired.ties, calib::PValueText(h.paired.sign_test_p).c_str(),
                 h.paired.mean_difference, h.paired.difference_sem);

@@ -20,9 +20,9 @@ using calib::Glyphs;
 enum Color { kPlain = 0, kGood = 1, kWarn = 2, kBad = 3, kTitle = 4 };
 
 const char* kComponentNames[3] = {"x", "y", "yaw"};
-// Residuals are shown in mm and degrees.
-const double kComponentScale[3] = {1e3, 1e3, 180.0 / M_PI};
-const char* kComponentUnits[3] = {"mm", "mm", "deg"};
+// Residuals are shown in mm and mrad, as on the console and the reports (docs/units.md).
+const double kComponentScale[3] = {1e3, 1e3, 1e3};
+const char* kComponentUnits[3] = {"mm", "mm", "mrad"};
 
 bool g_color = false;
 
@@ -102,23 +102,8 @@ void DrawFooter(const calib::DashboardModel& model, int64_t now_us) {
   if (COLS - Cells(keys) > Cells(left) + 1) Put(LINES - 1, COLS - Cells(keys), keys);
 }
 
-// Words of `text` in lines of at most `width` cells (a longer word is cut).
-std::vector<std::string> Wrap(const std::string& text, int width) {
-  std::vector<std::string> lines(1);
-  std::size_t start = 0;
-  while (start < text.size()) {
-    std::size_t end = text.find(' ', start);
-    if (end == std::string::npos) end = text.size();
-    const std::string word = text.substr(start, end - start);
-    if (!lines.back().empty() && Cells(lines.back()) + 1 + Cells(word) > width) lines.emplace_back();
-    lines.back() += (lines.back().empty() ? "" : " ") + Clip(word, width);
-    start = end + 1;
-  }
-  return lines;
-}
-
 // Status, intervals, outliers, condition; then the reason when not ok (up to
-// `message_lines` lines) or the weak parameters. Returns the next row.
+// `message_lines` lines, ending at a word with "..." when it needs more) or the weak parameters. Returns the next row.
 int DrawEstimateStatus(const calib::EstimateView& e, int y, int message_lines) {
   if (!e.any) {
     Put(y, 0, "Calibration: waiting for the solver (CALIB_ESTIMATE)", kWarn);
@@ -131,9 +116,8 @@ int DrawEstimateStatus(const calib::EstimateView& e, int y, int message_lines) {
              e.condition));
   ++y;
   if (!e.message.empty()) {  // the reason (e.g. the unobservable parameter and the motion to add)
-    const std::vector<std::string> lines = Wrap(e.message, std::max(10, COLS - 2));
-    for (std::size_t i = 0; i < lines.size() && static_cast<int>(i) < message_lines; ++i)
-      Put(y++, 2, lines[i], StatusColor(e.status));
+    for (const std::string& line : calib::WrapWords(e.message, std::max(10, COLS - 2), message_lines))
+      Put(y++, 2, line, StatusColor(e.status));
   } else {
     std::string weak = "observability: all parameters determined";
     if (!e.weak.empty()) {
@@ -190,7 +174,7 @@ double DrawResidualPlot(const calib::DashboardModel& model, int k, int y, int x,
 }
 
 void DrawOverview(const calib::DashboardModel& model, int64_t now_us, const ViewState& state) {
-  int y = DrawEstimateStatus(model.Estimate(now_us), 1, 2);
+  int y = DrawEstimateStatus(model.Estimate(now_us), 1, 4);
   // The parameters first; the residuals, channels, processes and commander below as rows allow.
   y = DrawParameterTable(model, y, state.glyphs, RowsLeft(y) - 2);
   if (RowsLeft(y) >= 7 && !model.residuals().empty()) {

@@ -27,16 +27,24 @@ void Declare(agvcal_process::CommandLine* args) {
   args->Description(R"(Emulates a SICK scanner speaking CoLa-A on TCP: accepts one client, answers
 'sEN LMDscandata 1' with 'sEA LMDscandata 1', then streams the scans of LOG's
 channel as 'sSN LMDscandata' telegrams in real time (ranges in whole mm), and
-closes the connection and exits at the end of the recording.)")
+closes the connection and exits at the end of the recording. For testing
+agvcal-lidarbridge without a scanner: the bridge stamps each scan by mapping the
+device's own clock (a 32-bit microsecond counter in each telegram) onto the host's;
+the options below give that clock the faults of a real device (network delay,
+a clock running fast, a counter about to wrap) to check the mapping against.)")
       .Positional("LOG", "the recording whose scans it serves")
       .Option("--port", "P", "TCP port (default 2111)")
       .Option("--bind", "ADDR", "IPv4 address to listen on (default 127.0.0.1)")
       .Option("--channel", "SCAN", "the recording's scan channel (default SCAN)")
-      .Option("--jitter-ms", "J", "each telegram leaves up to J ms late (uniform, seeded; default 0)")
-      .Option("--drift-ppm", "D", "the emulated device's clock runs D ppm fast (default 0)")
-      .Option("--boot-us", "B", "the device's clock at the first scan, us\n"
-              "(default 4294000000, near the 32-bit wrap)")
-      .Option("--seed", "N", "seed of the jitter (default 1)")
+      .Option("--jitter-ms", "J", "each telegram leaves up to J ms late (uniform, seeded; default 0):\n"
+              "network and scheduling delay, which the bridge must not take for\n"
+              "the scan's time")
+      .Option("--drift-ppm", "D", "the emulated device's clock runs D ppm fast (default 0): a real\n"
+              "scanner's oscillator drifts against the host's clock")
+      .Option("--boot-us", "B", "the device's clock at the first scan, us (default 4294000000:\n"
+              "the 32-bit counter wraps about 1 s later, which the bridge must\n"
+              "unwrap)")
+      .Option("--seed", "N", "seed of the jitter (default 1): the same seed, the same delays")
       .Footer("Exit status: 0 served the recording, 2 bad log or options, 1 internal error.\n");
 }
 

@@ -20,6 +20,7 @@
 #include <vector>
 
 #include "calib/calibrate/calibration_data.h"
+#include "calib/calibrate/calibration_report.h"
 #include "calib/calibrate/recording_input.h"
 #include "calib/calibrate/result_files.h"
 #include "calib/core/errors.h"
@@ -40,7 +41,8 @@ CALIB_ESTIMATE (estimates, sigmas, observability) after every N new motions and
 CALIB_RESIDUALS (per-interval residuals), and HEARTBEAT.)")
       .Positional("ROBOT.yaml", "the robot file (docs/spec/robot.md)")
       .Option("--source", "lidar2d|pose", "the sensor (default lidar2d if the robot file has one, else pose)")
-      .Option("--every", "N", "re-solve after N new motions (default 200)")
+      .Option("--every", "N", "re-solve after N new motions (default 20: about every 12 s of\n"
+              "the bundled samples, whose scan matcher gives a motion per 0.6 s)")
       .Flag("--time-offset",
             "also estimate the lidar-to-wheel time offset; with SCAN_MATCH and\n"
             "--catch-up, the final solve then matches the recording's scans a\n"
@@ -221,7 +223,7 @@ class Solver {
   calib::CalibrationOptions options_;
   calib::CalibrationData data_;  // read by the worker while it solves: added to only between solves
   lcm::LCM* lcm_;
-  std::size_t every_ = 200, solved_at_ = 0;
+  std::size_t every_ = 20, solved_at_ = 0;
   bool holding_solves_ = false;
   int64_t last_residual_utime_ = 0;
   std::future<calib::CalibrationResult> running_;  // the intermediate solve, while one runs
@@ -249,7 +251,7 @@ int Run(int argc, char** argv) {
   const calib::MotionSource source =
       MotionSourceOption(args, {calib::MotionSource::kLidar2d, calib::MotionSource::kPose}, LiveMotionSource(robot))
           .value();
-  const double every = args.GetDouble("--every", 200);
+  const double every = args.GetDouble("--every", 20);
   if (!(every >= 1)) throw calib::InputError("command line", "--every", "must be >= 1");
   calib::CalibrationOptions options;
   options.estimate_time_offset = args.Has("--time-offset");
@@ -293,7 +295,8 @@ int Run(int argc, char** argv) {
   result.input_dropped = bus.dropped();
   result.input_notes = bus.drop_notes();
   if (args.Has("--out")) calib::WriteFileAtomically(args.Get("--out", ""), calib::CalibrationResultJson(result));
-  std::cerr << "agvcal-solver: final solve on " << result.residual.intervals << " intervals\n";
+  std::cerr << "agvcal-solver: final solve on " << result.residual.intervals << " intervals\n"
+            << calib::CalibrationConsoleText(result);
   return calib::kExitOk;
 }
 

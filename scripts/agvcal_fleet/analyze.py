@@ -299,6 +299,19 @@ def fmt_param(name, v, signed=True):
     return f"{v * 1e3:{sign}.2f} mm"
 
 
+def fmt_p(p):
+    """A p-value in a sentence as the C++ outputs write it (calib::PValueText): two significant
+    digits, "p < 1e-12" below 1e-12, where the tail is numerical noise; never "p = 0"."""
+    if p is None or math.isnan(p):
+        return "p = n/a"
+    return "p < 1e-12" if p < 1e-12 else f"p = {p:.2g}"
+
+
+def fmt_error_per_m(v):
+    """An odometry error per metre of path in mm/m, as the solve report writes it."""
+    return "n/a" if v is None or not math.isfinite(v) else f"{v * 1e3:.1f} mm/m"
+
+
 def fmt_effect(key, v):
     name = key.split(":")[0]
     p = EFFECT_SIZE_PARAM.get(name, "")
@@ -326,10 +339,10 @@ def describe(f):
             rel = f" ({100 * f['size'] / abs(d['nominal']):+.2f} % of nominal)" if not is_angle(f["subject"]) else ""
         return (f"{f['subject']} drifts {fmt_param(f['subject'], f['size'])}{rel} over "
                 f"{d['span_days']:.0f} days ({fmt_param(f['subject'], d['per_30_days'])} per 30 days, "
-                f"z = {d['z']:.1f}, p = {f['p_value']:.2g}); shows from {date(f['first_utime'])}")
+                f"z = {d['z']:.1f}, {fmt_p(f['p_value'])}); shows from {date(f['first_utime'])}")
     if k == "step":
         return (f"{f['subject']} stepped by {fmt_param(f['subject'], f['size'])} "
-                f"(± {fmt_param(f['subject'], f['size_std'], False)}, p = {f['p_value']:.2g}) between "
+                f"(± {fmt_param(f['subject'], f['size_std'], False)}, {fmt_p(f['p_value'])}) between "
                 f"{date(d['last_before_utime'])} and {date(f['change_utime'])}")
     if k == "effect":
         return (f"{f['subject']} ({fmt_effect(f['subject'], f['size'])}) found in "
@@ -339,12 +352,12 @@ def describe(f):
         return (f"{f['subject']} appeared in {len(d['robots'])} robots "
                 f"({100 * d['share']:.0f} % of the {d['robots_observed']} observed) between "
                 f"{date(f['first_utime'])} and {date(d['last_utime'])}, median "
-                f"{fmt_effect(f['subject'], f['size'])} (p = {f['p_value']:.2g})")
+                f"{fmt_effect(f['subject'], f['size'])} ({fmt_p(f['p_value'])})")
     if k == "failed":
         return (f"{d['failed']} of {d['of']} recordings failed; last: {f['subject']}: {d['message']}")
     if k == "heldout":
         return (f"the latest calibration predicts held-out data worse than nominal "
-                f"({d['nominal_error_per_m']:.4f} -> {f['size']:.4f} per m)")
+                f"({fmt_error_per_m(d['nominal_error_per_m'])} -> {fmt_error_per_m(f['size'])})")
     return k
 
 

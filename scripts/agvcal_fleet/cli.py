@@ -139,7 +139,7 @@ def analyze_and_report(args):
     analyze.store(db, result["findings"])
     if args.command == "report":
         from . import report
-        report.write(args.out, robots, result, db)
+        report.write(args.out, robots, result, db, report.provenance(args.db))
         print(f"agvcal-fleet: report in {args.out}/index.html", file=sys.stderr)
     else:
         if args.json:

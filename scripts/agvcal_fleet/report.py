@@ -18,24 +18,17 @@ import re
 
 from . import analyze as an
 from . import stats
-from .svg import Plot
+from .svg import Plot, date_ticks, ticks
 
-CSS = """
-body { font-family: DejaVu Sans, Arial, sans-serif; margin: 0 auto; padding: 12px 18px; max-width: 980px;
-       color: #222; font-size: 14px; line-height: 1.4; }
-h1 { font-size: 22px; margin: 6px 0 4px; } h2 { font-size: 17px; margin: 22px 0 6px; border-bottom: 1px solid #ddd; }
-h3 { font-size: 14px; margin: 14px 0 4px; }
-table { border-collapse: collapse; width: 100%; table-layout: fixed; font-size: 12.5px; }
-th, td { border-bottom: 1px solid #e5e5e5; padding: 3px 5px; text-align: left; vertical-align: top;
-         overflow-wrap: anywhere; }
-th { background: #f4f4f4; }
-img { max-width: 100%; height: auto; display: block; margin: 4px 0 10px; }
-.kind { display: inline-block; padding: 0 6px; border-radius: 3px; color: white; font-size: 11.5px; }
-.step { background: #d62728; } .drift { background: #ff7f0e; } .fleet_effect { background: #6a3d9a; }
-.effect { background: #9467bd; } .failed { background: #7f7f7f; } .heldout { background: #8c564b; }
-.ok { color: #2ca02c; } .muted { color: #777; } .small { font-size: 12px; }
-a { color: #08519c; }
-"""
+# The reports' one stylesheet, the C++ reports' too (their pages embed it at build time).
+STYLE_FILE = os.path.join(os.path.dirname(os.path.abspath(__file__)), "..", "..", "libcalib", "src", "io",
+                          "report_style.css")
+
+
+def css():
+    with open(STYLE_FILE, encoding="utf-8") as f:
+        return f.read()
+
 
 CHECK_JS = """
 window.addEventListener('load', function () {
@@ -70,13 +63,60 @@ def slug(rid):
     return re.sub(r"[^A-Za-z0-9._-]", "_", rid)
 
 
-def page(title, body, depth=0):
+def provenance(db_url):
+    """What produced the pages, in the C++ reports' words (their provenance table): the command
+    (the database's password left out), where it ran, the database, the agvcal version, the date."""
+    import datetime
+    import shlex
+    import subprocess
+    import sys
+    from .db import _redact
+    from .runner import find_agvcal
+    try:
+        r = subprocess.run([find_agvcal(None), "--version"], capture_output=True, text=True, timeout=30)
+        version = r.stdout.strip().split(" ", 1)[1] if r.returncode == 0 and " " in r.stdout.strip() else "unknown"
+    except Exception:  # no agvcal: the pages are still written, saying so
+        version = "unknown (no agvcal binary found)"
+    return {"command": "agvcal-fleet " + " ".join(shlex.quote(_redact(w)) for w in sys.argv[1:]),
+            "directory": os.getcwd(), "database": _redact(db_url), "agvcal_version": version,
+            "date": datetime.datetime.now(datetime.timezone.utc).strftime("%Y-%m-%dT%H:%M:%SZ")}
+
+
+def page(title, body, depth=0, verdict="", prov=None):
+    """A page as the C++ reports make theirs (io/report_page.cc): the title, one sentence a person
+    acts on, what produced the page, then the body."""
     up = "../" * depth
+    top = f"<h1>{e(title)}</h1>\n"
+    if verdict:
+        top += f"<p class=\"verdict\">{e(verdict)}</p>\n"
+    if prov:
+        top += ("<div class=\"tablewrap provenance\"><table>\n" +
+                "".join(f"<tr><th>{e(k)}</th><td>{e(v)}</td></tr>\n" for k, v in prov.items()) + "</table></div>\n")
     return (f"<!DOCTYPE html>\n<html lang=\"en\"><head><meta charset=\"utf-8\">"
             f"<meta name=\"viewport\" content=\"width=device-width, initial-scale=1\">"
-            f"<title>{e(title)}</title><style>{CSS}</style><script>{CHECK_JS}</script></head>"
-            f"<body>{body}<p class=\"muted small\">agvcal-fleet report · <a href=\"{up}index.html\">fleet</a></p>"
+            f"<title>{e(title)}</title><style>{css()}</style><script>{CHECK_JS}</script></head>"
+            f"<body>{top}{body}<p class=\"muted small\">agvcal-fleet report · <a href=\"{up}index.html\">fleet</a></p>"
             f"</body></html>\n")
+
+
+def fleet_verdict(robots, attention, by_robot):
+    if not attention:
+        return (f"No robot needs attention: the calibrations of all {len(robots)} robots are constant within their "
+                "sigmas, no effect persists and no recording failed; nothing to do.")
+    named = "; ".join(f"{rid} ({', '.join(sorted({f['kind'].replace('_', '-') for f in by_robot[rid]}))})"
+                      for rid in attention[:6])
+    more = f" and {len(attention) - 6} more" if len(attention) > 6 else ""
+    return (f"{len(attention)} of {len(robots)} robots need attention: {named}{more}. Open each robot's page for "
+            "the evidence, then recalibrate it or look for what changed on it.")
+
+
+def robot_verdict(rid, findings):
+    if not findings:
+        return f"{rid} needs nothing: its calibrations are constant within their sigmas and no effect persists."
+    first = findings[0]
+    return (f"{rid} needs attention: {first['why']}" + (f" (and {len(findings) - 1} more finding"
+            f"{'s' * (len(findings) > 2)} below)" if len(findings) > 1 else "") +
+            ". Recalibrate it, or look for what changed on it at that date.")
 
 
 def kind_badge(kind):
@@ -95,7 +135,7 @@ def write_file(path, text):
     os.replace(tmp, path)
 
 
-def write(out, robots, result, db):
+def write(out, robots, result, db, prov=None):
     os.makedirs(os.path.join(out, "robots"), exist_ok=True)
     findings = result["findings"]
     by_robot = {}
@@ -117,8 +157,7 @@ def write(out, robots, result, db):
     # -- index ----------------------------------------------------------------------------
     n_rec = sum(len(r["recordings"]) for r in robots.values())
     n_fail = sum(1 for rob in robots.values() for r in rob["recordings"] if r.solve_exit != 0 or r.diag_exit != 0)
-    b = ["<h1>Fleet calibration report</h1>",
-         f"<p>{len(robots)} robots, {n_rec} recordings from {an.date(xlo * an.DAY_US)} to "
+    b = [f"<p>{len(robots)} robots, {n_rec} recordings from {an.date(xlo * an.DAY_US)} to "
          f"{an.date(xhi * an.DAY_US)}; {n_fail} failed. <b>{len(attention)} robot"
          f"{'s' * (len(attention) != 1)} need attention.</b> {result['tests']} trend tests "
          f"(drift and step for every robot and parameter with at least the minimum number of "
@@ -137,10 +176,11 @@ def write(out, robots, result, db):
             b.append(f'<img src="fleet_effect_{i}.svg" width="640" height="200" alt="{e(f["subject"])} over the fleet">')
     b.append("<h2>Robots that need attention</h2>")
     if attention:
-        b.append('<img src="evidence.svg" width="640" height="220" alt="strongest evidence per robot">')
+        b.append(f'<img src="evidence.svg" width="640" height="{evidence_height(list(robots))}" '
+                 'alt="strongest evidence per robot">')
         b.append('<img src="timeline.svg" alt="timeline of the robots that need attention" '
                  f'width="640" height="{timeline_height(len(attention))}">')
-        b.append('<table><tr><th style="width:13%">robot</th><th style="width:9%">drive</th>'
+        b.append('<table class="fixed"><tr><th style="width:13%">robot</th><th style="width:9%">drive</th>'
                  '<th style="width:11%">finding</th><th>why</th></tr>')
         for rid in attention:
             rows = by_robot[rid]
@@ -152,18 +192,19 @@ def write(out, robots, result, db):
     else:
         b.append('<p class="ok">None: every robot\'s parameters are constant within their sigmas, no '
                  'effect persists, no recording failed.</p>')
-        b.append('<img src="evidence.svg" width="640" height="220" alt="strongest evidence per robot">')
+        b.append(f'<img src="evidence.svg" width="640" height="{evidence_height(list(robots))}" '
+                 'alt="strongest evidence per robot">')
     failed = [(rid, r) for rid, rob in robots.items() for r in rob["recordings"]
               if r.solve_exit != 0 or r.diag_exit != 0]
     if failed:
-        b.append("<h2>Failed recordings</h2><table><tr><th style=\"width:13%\">robot</th>"
+        b.append("<h2>Failed recordings</h2><table class=\"fixed\"><tr><th style=\"width:13%\">robot</th>"
                  "<th style=\"width:30%\">recording</th><th style=\"width:12%\">exit (solve / diagnose)</th><th>message</th></tr>")
         for rid, r in failed:
             msg = r.solve_message if r.solve_exit != 0 else r.diag_message
             b.append(f"<tr><td><a href=\"robots/{slug(rid)}.html\">{e(rid)}</a></td><td>{e(os.path.basename(r.path))}</td>"
                      f"<td>{e(r.solve_exit)} / {e(r.diag_exit)}</td><td>{e(msg or '')}</td></tr>")
         b.append("</table>")
-    b.append("<h2>All robots</h2><table><tr><th style=\"width:14%\">robot</th><th style=\"width:10%\">drive</th>"
+    b.append("<h2>All robots</h2><table class=\"fixed\"><tr><th style=\"width:14%\">robot</th><th style=\"width:10%\">drive</th>"
              "<th style=\"width:11%\">recordings</th><th style=\"width:13%\">latest</th>"
              "<th style=\"width:17%\">latest held-out check</th><th>status</th></tr>")
     for rid, rob in robots.items():
@@ -179,18 +220,19 @@ def write(out, robots, result, db):
     b.append(f"<p class=\"small muted\">Noise scale per drive and parameter (the sigmas are widened by it when "
              f"the fleet's scatter says they are optimistic): "
              f"{e(', '.join(f'{k} {v:.2f}' for k, v in sorted(result['scales'].items())))}.</p>")
-    write_file(os.path.join(out, "index.html"), page("Fleet calibration report", "\n".join(b)))
+    write_file(os.path.join(out, "index.html"), page("Fleet calibration report", "\n".join(b), 0,
+                                                     fleet_verdict(robots, attention, by_robot), prov))
 
     # -- robot pages ----------------------------------------------------------------------
     for rid, rob in robots.items():
-        write_robot(out, rid, rob, by_robot.get(rid, []), result)
+        write_robot(out, rid, rob, by_robot.get(rid, []), result, prov)
 
 
-def write_robot(out, rid, rob, findings, result):
+def write_robot(out, rid, rob, findings, result, prov=None):
     s = slug(rid)
     d = os.path.join(out, "robots")
     recs = rob["recordings"]
-    b = [f"<h1>{e(rid)}</h1><p>{e(rob['drive'] or '?')} drive, robot file <code>{e(rob['robot_file'])}</code>; "
+    b = [f"<p>{e(rob['drive'] or '?')} drive, robot file <code>{e(rob['robot_file'])}</code>; "
          f"{len(recs)} recordings.</p>"]
     if findings:
         b.append("<h2>Findings</h2><ul>")
@@ -217,14 +259,15 @@ def write_robot(out, rid, rob, findings, result):
             fname = f"{s}_e{i}.svg"
             write_file(os.path.join(d, fname), effect_svg(key, recs, xlo, xhi))
             b.append(f'<img src="{fname}" width="640" height="200" alt="{e(key)} over time">')
-    b.append("<h2>Recordings</h2><table><tr><th style=\"width:11%\">date</th><th style=\"width:27%\">file</th>"
+    b.append("<h2>Recordings</h2><table class=\"fixed\"><tr><th style=\"width:11%\">date</th><th style=\"width:27%\">file</th>"
              "<th style=\"width:9%\">s, m driven</th><th style=\"width:9%\">solve</th><th style=\"width:16%\">held-out</th>"
              "<th>diagnosis</th></tr>")
     for r in recs:
         solve = "ok" if r.solve_exit == 0 else f"exit {r.solve_exit}"
         ho = r.heldout.get("heldout_verdict") or ""
         if r.heldout.get("heldout_nominal_error_per_m") is not None:
-            ho += f" ({r.heldout['heldout_nominal_error_per_m']:.4f} → {r.heldout['heldout_calibrated_error_per_m']:.4f}/m)"
+            ho += (f" ({an.fmt_error_per_m(r.heldout['heldout_nominal_error_per_m'])} → "
+                   f"{an.fmt_error_per_m(r.heldout['heldout_calibrated_error_per_m'])})")
         if r.diag_exit == 0:
             diag = ", ".join(f"{k} {an.fmt_effect(k, v[an.effect_key_param(k, v)][0])}" for k, v in sorted(r.effects.items())) or "no effect"
         else:
@@ -235,7 +278,8 @@ def write_robot(out, rid, rob, findings, result):
         b.append(f"<tr><td>{an.date(r.utime)}</td><td>{e(os.path.basename(r.path))}</td><td>{dur}</td>"
                  f"<td>{e(solve)}</td><td>{e(ho.replace('_', ' '))}</td><td>{e(diag)}</td></tr>")
     b.append("</table>")
-    write_file(os.path.join(d, f"{s}.html"), page(f"{rid}: calibration trends", "\n".join(b), depth=1))
+    write_file(os.path.join(d, f"{s}.html"), page(f"{rid}: calibration trends", "\n".join(b), 1,
+                                                       robot_verdict(rid, findings), prov))
 
 
 # -- plots ---------------------------------------------------------------------------------
@@ -310,9 +354,10 @@ def effect_svg(key, recs, xlo, xhi):
 
 
 def evidence_svg(robots, result):
-    """Per robot (x, in the order of the table) the strongest evidence of a change:
-    -log10 of the smallest adjusted p-value of its drift and step tests, against the
-    threshold -log10(alpha)."""
+    """Per robot, in the order of the table and named on the axis, the strongest evidence of a
+    change: -log10 of the smallest adjusted p-value of its drift and step tests, against the
+    threshold -log10(alpha). A bar chart with names: matplotlib's (Debian python3-matplotlib),
+    in the reports' look and with their tick rule on the value axis (svg.ticks)."""
     ids = list(robots)
     vals, colors = [], []
     for rid in ids:
@@ -326,17 +371,59 @@ def evidence_svg(robots, result):
         colors.append({"drift": "#ff7f0e", "step": "#d62728"}.get(kind, "#636363")
                       if best <= result["alpha"] else "#636363")
     thr = -math.log10(result["alpha"])
-    p = Plot(height=220, title="strongest evidence of a change per robot, in the order of the table",
-             ylabel="-log10 adjusted p", xlo=-1, xhi=max(len(ids), 1), ylo=0, yhi=13)
-    p.hline(thr, color="#d62728", dash="5 3")
-    p.raw(f'<text x="{p.ml + 4}" y="{p.Y(thr) - 4:.1f}" font-size="10" '
-          f'fill="#d62728">alarm threshold (alpha {result["alpha"]:g})</text>')
-    bw = max(1.0, (p.w - p.ml - p.mr) / max(len(ids), 1) * 0.7)
-    for i, (rid, v, c) in enumerate(zip(ids, vals, colors)):
-        x0 = p.X(i) - bw / 2
-        p.raw(f'<rect x="{x0:.1f}" y="{p.Y(v):.1f}" width="{bw:.1f}" height="{p.Y(0) - p.Y(v):.1f}" '
-              f'fill="{c}"><title>{html.escape(rid)}: {v:.1f}</title></rect>')
-    return p.render(xdates=False)
+    fig, ax = mpl_axes(width=640, height=evidence_height(ids))
+    ax.bar(range(len(ids)), vals, width=0.7, color=colors)
+    ax.set_xlim(-0.6, max(len(ids), 1) - 0.4)
+    ax.set_xticks(range(len(ids)))
+    ax.set_xticklabels(ids, rotation=90, fontsize=min(12, max(6, 560 // max(len(ids), 1))))
+    ax.set_xlabel("robot, in the order of the table", fontsize=12)
+    ax.axhline(thr, color="#d62728", linestyle=(0, (5, 3)), linewidth=1)
+    ax.text(0.99, thr + 0.3, f"alarm threshold (alpha {result['alpha']:g})", color="#d62728", fontsize=10,
+            ha="right", transform=ax.get_yaxis_transform())
+    mpl_value_axis(ax, 0, 13, "-log10 adjusted p")
+    ax.set_title("strongest evidence of a change per robot", loc="left", fontsize=13)
+    return mpl_svg(fig)
+
+
+def evidence_height(ids):
+    """The evidence chart's height in px: room for the longest name, written upwards."""
+    return 170 + 7 * max((len(r) for r in ids), default=0)
+
+
+def mpl_axes(width, height):
+    """A matplotlib figure of width x height px with one axes, in the reports' look (svg.py's
+    docstring): sans-serif 12 px, a dark frame, the title above it."""
+    import matplotlib
+    from matplotlib.figure import Figure
+    matplotlib.rcParams["svg.hashsalt"] = "agvcal"
+    matplotlib.rcParams["font.family"] = "sans-serif"
+    matplotlib.rcParams["svg.fonttype"] = "none"  # text as text: names a page can search
+    fig = Figure(figsize=(width / 72, height / 72), dpi=72)  # 1 pt = 1 px: font sizes as the reports' px
+    ax = fig.add_subplot()
+    for side in ax.spines.values():
+        side.set_color("#444")
+    ax.tick_params(colors="#222", labelsize=12)
+    return fig, ax
+
+
+def mpl_value_axis(ax, lo, hi, label):
+    """The value axis with the reports' ticks (svg.ticks, the C++ reports' rule) and grid."""
+    marks = ticks(lo, hi)
+    ax.set_ylim(lo, hi)
+    ax.set_yticks([v for v, _ in marks])
+    ax.set_yticklabels([t for _, t in marks])
+    ax.yaxis.grid(True, color="#ddd")
+    ax.set_axisbelow(True)
+    ax.set_ylabel(label, fontsize=12)
+
+
+def mpl_svg(fig):
+    """The figure as SVG text, the same bytes for the same figure (no date, fixed ids)."""
+    import io
+    fig.tight_layout()
+    out = io.StringIO()
+    fig.savefig(out, format="svg", metadata={"Date": None})
+    return out.getvalue()
 
 
 def timeline_height(n):
@@ -386,11 +473,16 @@ def fleet_effect_svg(robots, f, xlo, xhi):
                 weeks[w] = (n + 1, k + (key in r.effects))
     xs = sorted(weeks)
     share = [100.0 * weeks[w][1] / weeks[w][0] for w in xs]
-    p = Plot(title=f"{key}: share of the week's recordings in which it is found", ylabel="%",
-             xlo=xlo - 3, xhi=xhi + 4, ylo=0, yhi=max(share + [10]) * 1.1)
-    for w, v in zip(xs, share):
-        p.raw(f'<rect x="{p.X(w) + 1:.1f}" y="{p.Y(v):.1f}" width="{max(1.0, p.X(w + 7) - p.X(w) - 2):.1f}" '
-              f'height="{p.Y(0) - p.Y(v):.1f}" fill="#6a3d9a" fill-opacity="0.75"><title>week of '
-              f'{an.date(w * an.DAY_US)}: {weeks[w][1]} of {weeks[w][0]}</title></rect>')
-    p.vline(f["first_utime"] / an.DAY_US, color="#d62728", label="appears")
-    return p.render()
+    # A bar chart: matplotlib's, with the fleet's date ticks (svg.date_ticks) and the reports' value ticks.
+    fig, ax = mpl_axes(width=640, height=200)
+    ax.bar(xs, share, width=6.6, align="edge", color="#6a3d9a", alpha=0.75)
+    ax.set_xlim(xlo - 3, xhi + 4)
+    marks = date_ticks(xlo - 3, xhi + 4)
+    ax.set_xticks([x for x, _ in marks])
+    ax.set_xticklabels([t for _, t in marks])
+    onset = f["first_utime"] / an.DAY_US
+    ax.axvline(onset, color="#d62728", linestyle=(0, (4, 3)), linewidth=1.2)
+    ax.text(onset, 0.97, " appears", color="#d62728", fontsize=10, va="top", transform=ax.get_xaxis_transform())
+    mpl_value_axis(ax, 0, max(share + [10]) * 1.1, "% of the week's recordings")
+    ax.set_title(f"{key}: share of the week's recordings in which it is found", loc="left", fontsize=13)
+    return mpl_svg(fig)

@@ -120,7 +120,7 @@ ov = screen("overview")
 check(f"Calibration: final tricycle  intervals {n}  outliers {m}" in ov, f"final estimate, {n} intervals, {m} outliers")
 # The residual line counts each interval's residual as it was sent (its outlier flag then), not
 # the last solve's outliers: the same count in the residual view.
-rl = re.search(r"residual rms  x [0-9.]+ mm  y [0-9.]+ mm  yaw [0-9.e-]+ deg  \(%d sent, ([0-9]+) flagged\)" % n, ov)
+rl = re.search(r"residual rms  x [0-9.]+ mm  y [0-9.]+ mm  yaw [0-9.e-]+ mrad  \(%d sent, ([0-9]+) flagged\)" % n, ov)
 check(rl, "residual rms line")
 sent_outliers = int(rl.group(1)) if rl else -1
 check(sum(1 for c in ov if 0x2800 < ord(c) <= 0x28FF) > 30, "braille residual plots")
@@ -148,7 +148,7 @@ for channel in ("WHEELS", "SCAN", "IMU"):
 for process in ("scanmatch", "solver"):
     check(line_of("bus_stale", process + " ").endswith(" ok"), f"{process} still alive after the replay")
 res = screen("residuals")
-check(all(re.search(r"^" + k + r" +rms [0-9.]+ (mm|deg)  max [0-9.]+ (mm|deg)  n %d  outliers %d" % (n, sent_outliers), res, re.M)
+check(all(re.search(r"^" + k + r" +rms [0-9.]+ (mm|mrad)  max [0-9.]+ (mm|mrad)  n %d  outliers %d" % (n, sent_outliers), res, re.M)
           for k in ("x", "y", "yaw")), "residual view: rms, max, counts per component")
 check(res.count("histogram") == 3 and sum(1 for c in res if 0x2581 <= ord(c) <= 0x2588) > 20,
       "residual view: three histograms of block bars")

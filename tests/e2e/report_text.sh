@@ -7,12 +7,13 @@ source "$(dirname "$0")/lib.bash" "$@"
 robot=config/robots/forklift.yaml
 log=logs/forklift_demo.log
 
-# solve's table: every parameter with its unit, angles in rad with degrees beside.
+# solve's table: every parameter with its unit, angles in rad with degrees beside; the yaw
+# residual in mrad (docs/units.md).
 expect_status 0 "solve" "$AGVCAL" solve $robot $log --quiet
 python3 - "$TMP/stdout" <<'PY' && pass "solve's table has units, rad with deg beside" || fail "solve's table: $(cat "$TMP/stdout")"
 import re, sys
 text = open(sys.argv[1]).read()
-assert re.search(r"residual rms x [0-9.]+ mm, y [0-9.]+ mm, yaw [0-9.e-]+ rad \([0-9.e-]+ deg\)", text), text
+assert re.search(r"residual rms x [0-9.]+ mm, y [0-9.]+ mm, yaw [0-9.]+ mrad \([0-9.e-]+ deg\)", text), text
 rows = {m.group(1): m.group(2) for m in re.finditer(r"^  (\S+) +(-?[0-9].*?) +\(nominal", text, re.M)}
 assert set(rows) >= {"drive_radius", "wheelbase", "steer_offset", "lidar2d.x", "lidar2d.yaw"}, rows
 for name in ("drive_radius", "wheelbase", "lidar2d.x"):
@@ -27,10 +28,35 @@ python3 - "$TMP/report/summary.txt" <<'PY' && pass "summary.txt has units" || fa
 import re, sys
 text = open(sys.argv[1]).read()
 assert re.search(r"Overall held-out residual RMS: x [0-9.]+ mm -> [0-9.]+ mm, y [0-9.]+ mm -> [0-9.]+ mm, "
-                 r"yaw [0-9.e-]+ rad \([0-9.e-]+ deg\) -> [0-9.e-]+ rad", text), text
-assert re.search(r"translation [0-9.]+ mm -> [0-9.]+ mm, heading [0-9.e-]+ rad \(", text), text
+                 r"yaw [0-9.]+ mrad \([0-9.e-]+ deg\) -> [0-9.]+ mrad", text), text
+assert re.search(r"translation [0-9.]+ mm -> [0-9.]+ mm, heading [0-9.]+ mrad \(", text), text
 assert not re.search(r"p = 0(?![.0-9])|p = 0\.0+(?![0-9])", text), text  # "p = 0", "p = 0.000"
 assert "+-" not in text, text
+PY
+
+# One vocabulary (docs/units.md): the parameters in one order in solve's console table, solve's page
+# and diagnose's page; the yaw residual in mrad on every one of them and in both summary.txt.
+expect_status 0 "solve --report" "$AGVCAL" solve $robot $log --quiet --report "$TMP/solve_page"
+cp "$TMP/stdout" "$TMP/solve_console.txt"
+python3 - "$TMP/solve_console.txt" "$TMP/solve_page" "$TMP/report" <<'PY' && pass "one order and one yaw unit across solve and diagnose" || fail "order or units differ"
+import html, re, sys
+console, solve, diagnose = sys.argv[1:4]
+def page_rows(path):
+    text = open(path + "/index.html", encoding="utf-8").read()
+    table = re.search(r"<tr><th>parameter</th>.*?</table>", text, re.S)
+    assert table, path + ": no table headed 'parameter'"
+    return [html.unescape(n) for n in re.findall(r"<tr><td>([^<]+)</td>", table.group(0))], text
+order = re.findall(r"^  (\S+) +-?[0-9].*\(nominal", open(console).read(), re.M)
+solve_order, solve_text = page_rows(solve)
+diagnose_order, diagnose_text = page_rows(diagnose)
+print("console:", order, "\nsolve page:", solve_order, "\ndiagnose page:", diagnose_order)
+assert order and order == solve_order == diagnose_order
+for name, text in (("solve", solve_text), ("diagnose", diagnose_text)):
+    summary = open({"solve": solve, "diagnose": diagnose}[name] + "/summary.txt", encoding="utf-8").read()
+    assert re.search(r"yaw [0-9.]+ mrad", summary), name + " summary.txt: yaw residual not in mrad"
+    assert not re.search(r"yaw (residual )?[0-9.e-]+ (rad|deg)\b", summary), name + " summary.txt: yaw residual in rad or deg"
+    plot = open({"solve": solve, "diagnose": diagnose}[name] + "/residual_time.svg", encoding="utf-8").read()
+    assert "yaw residual (mrad)" in plot, name + " page: the yaw residual plot is not in mrad"
 PY
 
 # Summary lines of a found effect and of a candidate the recording cannot identify.

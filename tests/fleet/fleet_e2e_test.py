@@ -18,7 +18,7 @@ import xml.etree.ElementTree as ET
 import zlib
 
 sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
-from fleetlib import (FIXTURE, PLAN, check, finish, fleet, result_rows, same_rows, tmpdir,  # noqa: E402
+from fleetlib import (FIXTURE, PLAN, SRC, check, finish, fleet, result_rows, same_rows, tmpdir,  # noqa: E402
                       truth)
 
 shutil.rmtree(FIXTURE, ignore_errors=True)
@@ -123,6 +123,15 @@ check(len(svgs) > 40 and not bad, f"{len(svgs)} SVG plots, all well-formed XML",
 index = open(os.path.join(rep, "index.html")).read()
 for rid in ["agv-003", "agv-004", "agv-005"]:
     check(f'href="robots/{rid}.html"' in index, f"the index links {rid} (needs attention)")
+# Every page as the C++ reports' (tests/tools/browser_check.py): a verdict sentence under the title,
+# what produced it, no internal notes.
+sys.path.insert(0, os.path.join(SRC, "tests", "tools"))
+import browser_check  # noqa: E402
+problems = []
+for pg in ["index.html"] + [os.path.join("robots", f) for f in pages if f.endswith(".html")]:
+    problems += browser_check.content_problems(pg, open(os.path.join(rep, pg), encoding="utf-8").read(),
+                                               browser_check.FLEET_PROVENANCE_KEYS)
+check(not problems, "every page opens with a verdict sentence and what produced it", str(problems[:5]))
 
 chromium = shutil.which("chromium") or shutil.which("chromium-browser")
 if not chromium:

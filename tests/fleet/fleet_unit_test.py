@@ -3,7 +3,7 @@ step found where they are, the family-wise false-alarm rate on constant fleets, 
 noise scale when the sigmas are optimistic), fleet.yaml errors (exit 2, one line naming the
 file and the key), the folder-tree form, the schema migration, --help everywhere, and that the
 package's modules import each other without a cycle, and that the report's plots have the C++
-reports' ticks."""
+reports' ticks, its pages their stylesheet and their words for p-values and rates."""
 import ast
 import math
 import os
@@ -14,7 +14,7 @@ import sys
 from fractions import Fraction
 
 sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
-from fleetlib import BUILD, check, finish, fleet, tmpdir  # noqa: E402
+from fleetlib import AGVCAL, BUILD, SRC, check, finish, fleet, tmpdir  # noqa: E402
 
 from agvcal_fleet import analyze as an  # noqa: E402
 from agvcal_fleet import stats  # noqa: E402
@@ -105,6 +105,35 @@ if check(os.access(ticks_bin, os.X_OK), "the C++ tick rule's printer is built", 
     check(cxx[9] == [(116.10000000000001, "116.1"), (116.2, "116.2"), (116.3, "116.3"),
                      (116.39999999999999, "116.4")] and svg.ticks(116.1, 116.3)[1][1] == "116.15",
           "labels down to the step's digit", str(cxx[9:11]))
+
+# -- the pages: the C++ reports' stylesheet and words; robot names on the evidence chart -------
+import re  # noqa: E402
+
+from agvcal_fleet import report  # noqa: E402
+
+check(an.fmt_p(8.3e-204) == "p < 1e-12" and an.fmt_p(0.031) == "p = 0.031" and an.fmt_p(3.14e-5) == "p = 3.1e-05",
+      "p-values as the C++ outputs write them (calib::PValueText)", an.fmt_p(8.3e-204))
+heldout = an.describe({"kind": "heldout", "size": 0.0031, "detail": {"nominal_error_per_m": 0.0149}})
+check("14.9 mm/m -> 3.1 mm/m" in heldout, "held-out errors per metre with their unit", heldout)
+ids = [f"forklift-{i:02d}" for i in range(12)]
+evidence = report.evidence_svg({r: {} for r in ids},
+                               {"alpha": 0.05, "series": {"forklift-03": {"wheelbase": {"drift": {"p_adj": 1e-5}}}}})
+texts = re.findall(r"<text[^>]*>([^<]*)</text>", evidence) or re.findall(r"<!-- ([^>]*) -->", evidence)
+check(all(r in texts for r in ids), "the evidence chart names every robot on its axis", str(texts[:20]))
+check(all(lab in texts for _, lab in svg.ticks(0, 13)), "its value axis has the reports' ticks", str(texts))
+check(evidence == report.evidence_svg({r: {} for r in ids},
+                                      {"alpha": 0.05, "series": {"forklift-03": {"wheelbase": {"drift": {"p_adj": 1e-5}}}}}),
+      "the same chart, the same bytes")
+out = tmpdir()
+solve = subprocess.run([AGVCAL, "solve", os.path.join(SRC, "config", "robots", "diff_robot.yaml"),
+                        os.path.join(SRC, "logs", "diff_robot_demo.log"), "--quiet", "--report",
+                        os.path.join(out, "solve")], capture_output=True, text=True, timeout=300)
+style = re.compile(r"<style>(.*?)</style>", re.S)
+cxx_page = open(os.path.join(out, "solve", "index.html"), encoding="utf-8").read() if solve.returncode == 0 else ""
+cxx_style = style.search(cxx_page)
+fleet_style = style.search(report.page("t", "<p>x</p>"))
+check(cxx_style is not None and fleet_style is not None and cxx_style.group(1) == fleet_style.group(1),
+      "the fleet's pages and the C++ reports have one stylesheet", solve.stderr[-300:])
 
 rng = random.Random(20)
 

@@ -38,15 +38,17 @@ window.addEventListener('load', function () {
 INTERNAL_NOTES = [r"log SSE", r"per correlation time", r"boxes of the route \(x 0 \.\. 0, y 0 \.\. 0", r"(^|\n)note: "]
 PROVENANCE_KEYS = ["command", "directory", "robot_name", "robot_file", "recording", "recording_sha256",
                    "agvcal_version", "date"]
+# The fleet's pages (agvcal-fleet report) stand on a database, not on one recording.
+FLEET_PROVENANCE_KEYS = ["command", "directory", "database", "agvcal_version", "date"]
 
 
-def content_problems(name, html):
+def content_problems(name, html, keys=PROVENANCE_KEYS):
     """What the page says, without a browser: a verdict sentence right under the title, the run's
     provenance (enough to rerun the command on the same bytes), no internal notes."""
     problems = []
     if not re.search(r"</h1>\n<p class=\"verdict\">[^<]{30,}</p>", html):
         problems.append(f"{name}: no verdict sentence under the title")
-    for key in PROVENANCE_KEYS:
+    for key in keys:
         if not re.search(r"<th>%s</th><td>[^<]+</td>" % key, html):
             problems.append(f"{name}: provenance lacks {key}")
     sha = re.search(r"<th>recording_sha256</th><td>([^<]*)</td>", html)

@@ -14,6 +14,7 @@ docs/*.md and docs/spec/cli.md, a line of a fenced code block (joined across tra
 backslashes) or an inline `code` span, from the command's name ("agvcal solve", "agvcal-sim",
 with or without "build/") up to a shell comment, a pipe, "&&", ";" or the next command. --help
 and --version are every command's, documented once in README.md.
+Every --help ends with the command's exit statuses ("Exit status: 0 ...", docs/spec/cli.md).
 Also: the commander's help names every trajectory the code knows for each drive type (the list
 its own error message gives for an unknown trajectory).
 
@@ -68,6 +69,8 @@ def help_options(name, argv):
         fail("%s --help: exit %d, stdout starting %r (expected exit 0 and 'usage: %s')"
              % (name, r.returncode, r.stdout[:60], name))
         return None
+    if not re.search(r"^Exit status: 0 ", r.stdout, re.M):
+        fail("%s --help: no line 'Exit status: 0 ...' (every help says what its exit statuses mean)" % name)
     options = set()
     for line in r.stdout.split("\nOptions:\n", 1)[-1].splitlines():
         m = re.match(r"^  (?:-\w,)?(--[a-z][a-z0-9-]*)", line)

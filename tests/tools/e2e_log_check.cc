@@ -5,6 +5,7 @@
 //                                             may have HEARTBEAT besides (the group's own marks)
 //   e2e_log_check intervals LOG               prints the intervals of LOG's last CALIB_ESTIMATE
 //                                             (0 if none; LOG may be still being written)
+//   e2e_log_check estimates LOG               prints "STATUS INTERVALS" of each CALIB_ESTIMATE of LOG
 //   e2e_log_check stale LOG                   the commander reported stale inputs and stopped the robot
 //   e2e_log_check scanmatch LOG ROBOT.yaml LIVE  SCAN_MATCH in LIVE equals the offline pipeline
 //                                             run over LOG's WHEELS and scans, bit for bit
@@ -183,6 +184,18 @@ int Intervals(const std::string& log) {
       intervals = m.intervals;
   }
   std::cout << intervals << "\n";
+  return 0;
+}
+
+// One line per CALIB_ESTIMATE: its status and intervals ("ok 20"), in recording order.
+int Estimates(const std::string& log) {
+  calib::LogReader reader(log);
+  calib::LogEvent e;
+  while (reader.NextComplete(&e)) {
+    agvcal::calib_estimate_t m;
+    if (e.channel == calib::kCalibEstimateChannel && calib::Decode(e.data.data(), int(e.data.size()), &m))
+      std::cout << m.status << " " << m.intervals << "\n";
+  }
   return 0;
 }
 
@@ -422,13 +435,14 @@ int Run(int argc, char** argv) {
   if (mode == "same" && argc == 4) return Same(argv[2], argv[3]);
   if (mode == "stale" && argc == 3) return Stale(argv[2]);
   if (mode == "intervals" && argc == 3) return Intervals(argv[2]);
+  if (mode == "estimates" && argc == 3) return Estimates(argv[2]);
   if (mode == "scanmatch" && argc == 5) return ScanMatch(argv[2], argv[3], argv[4]);
   if (mode == "fusion" && argc == 5) return Fusion(argv[2], argv[3], argv[4]);
   if (mode == "limits" && argc == 4) return Limits(argv[2], argv[3]);
   if (mode == "held" && (argc == 4 || argc == 5)) return Held(argv[2], argv[3], argc == 5 ? argv[4] : "");
   if (mode == "halted" && argc == 3) return Halted(argv[2]);
   std::cerr << "usage: e2e_log_check rates LOG CHANNEL=HZ... | tracking LOG ROBOT.yaml | same A B |"
-               " stale LOG | scanmatch LOG ROBOT.yaml LIVE | fusion LOG ROBOT.yaml LIVE |"
+               " stale LOG | estimates LOG | scanmatch LOG ROBOT.yaml LIVE | fusion LOG ROBOT.yaml LIVE |"
                " limits LOG ROBOT.yaml | held LOG STATE [CHANNEL] | halted LOG\n";
   return 2;
 }

@@ -316,6 +316,39 @@ std::string SolveVerdict(const CalibrationResult& r) {
          "): record a longer run to tell, or write it if its changes matter to you.";
 }
 
+std::string MilliradiansText(double radians, int significant) {
+  return SignificantText(radians * 1e3, significant) + " mrad (" + SignificantText(radians * 180 / M_PI, significant) +
+         " deg)";
+}
+
+std::string CalibrationConsoleText(const CalibrationResult& r) {
+  std::ostringstream s;
+  s << DriveTypeName(r.drive) << " drive, " << r.residual.intervals << " intervals (" << r.residual.outliers
+    << " outliers), residual rms x " << MillimetresText(r.residual.rms_x) << ", y " << MillimetresText(r.residual.rms_y)
+    << ", yaw " << MilliradiansText(r.residual.rms_yaw) << "\n";
+  s << Formatted("  %-20s %-48s %s\n", "parameter", "estimate ± 1 sigma", "(nominal: the robot file)");
+  for (const auto& [name, e] : Estimates(r)) {
+    const std::string unit = ParamUnit(name);
+    std::string estimate = EstimateText(e.value, e.std, unit);
+    // Pad to 48 columns counting characters, not bytes ("±" is two bytes in UTF-8).
+    std::size_t width = 0;
+    for (const char c : estimate) width += (static_cast<unsigned char>(c) & 0xC0) != 0x80;
+    estimate += std::string(width < 48 ? 48 - width : 1, ' ');
+    const bool held = name == "imu.gyro_scale" && !r.imu->gyro_scale_estimated;
+    s << Formatted("  %-20s %s(nominal %.6g%s)\n", (name + (held ? "(held)" : "")).c_str(), estimate.c_str(),
+                   e.nominal, unit.empty() ? "" : (" " + unit).c_str());
+  }
+  if (r.imu)
+    s << Formatted("  gyro noise %.3g rad/s/sqrt(Hz), wheel heading noise %.3g rad/sqrt(m), distance %.4f m\n",
+                   r.imu->gyro_noise, r.imu->wheel_noise, r.imu->distance_m);
+  if (!r.weak.empty()) {
+    s << "  weakly determined:";
+    for (const std::string& w : r.weak) s << " " << w;
+    s << "\n";
+  }
+  return s.str();
+}
+
 std::string SolveReportSummary(const CalibrationResult& r, const std::string& log_path) {
   std::ostringstream s;
   s << SolveVerdict(r) << "\n\n"
@@ -323,8 +356,7 @@ std::string SolveReportSummary(const CalibrationResult& r, const std::string& lo
     << r.residual.intervals << " intervals fitted, " << r.residual.outliers << " outliers set aside";
   if (r.heldout) s << ", " << r.heldout->intervals << " held out";
   s << ".\nResidual RMS of the fitted inliers: x " << FixedDecimals(r.residual.rms_x * 1e3, 2) << " mm, y "
-    << FixedDecimals(r.residual.rms_y * 1e3, 2) << " mm, yaw " << FixedDecimals(r.residual.rms_yaw * 1e3, 3) << " mrad ("
-    << FixedDecimals(r.residual.rms_yaw * 180 / M_PI, 4) << " deg).\n";
+    << FixedDecimals(r.residual.rms_y * 1e3, 2) << " mm, yaw " << MilliradiansText(r.residual.rms_yaw) << ".\n";
   for (const auto& row : ParameterRows(r)) s << "  " << row[0] << " = " << row[1] << " (" << row[2] << ")\n";
   s << ObservabilityText(r) << "\n";
   if (r.heldout)

@@ -590,8 +590,8 @@ RecalDecision Decide(const SegmentBatch& batch, const CalibrationInUse& in_use,
   const ImprovementTest& imp = *d.improvement;
   const ConsistencyTest& con = *d.consistency;
   const std::string heldout_text =
-      "held-out odometry error " + Formatted("%.3g", imp.mean_current * 100) + " -> " + Formatted("%.3g", imp.mean_candidate * 100) +
-      " cm/m over " + std::to_string(heldout.size()) + " segments (" + (imp.relative < 0 ? "+" : "") +
+      "held-out odometry error " + Formatted("%.3g", imp.mean_current * 1e3) + " -> " + Formatted("%.3g", imp.mean_candidate * 1e3) +
+      " mm/m over " + std::to_string(heldout.size()) + " segments (" + (imp.relative < 0 ? "+" : "") +
       Formatted("%.2g", -imp.relative * 100) +
       "%, t = " + Formatted("%.3g", imp.t) + ", " + PValueText(imp.p);
   const std::string consistency_text =

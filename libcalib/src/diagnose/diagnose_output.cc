@@ -7,6 +7,7 @@
 
 #include <nlohmann/json.hpp>
 
+#include "calib/calibrate/calibration_report.h"
 #include "calib/calibrate/heldout.h"
 #include "calib/core/units.h"
 #include "calib/diagnose/diagnose.h"
@@ -46,6 +47,7 @@ std::string Percent(double before, double after) {
 // "before -> after unit": lengths in mm, angles in rad with degrees beside (units.h).
 std::string BeforeAfter(double before, double after, const std::string& unit) {
   if (unit == "m") return MillimetresText(before, 3) + " -> " + MillimetresText(after, 3);
+  if (unit == "rad") return MilliradiansText(before) + " -> " + MilliradiansText(after);  // docs/units.md
   return QuantityText(before, unit, 3) + " -> " + QuantityText(after, unit, 3);
 }
 

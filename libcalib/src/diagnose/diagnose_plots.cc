@@ -191,12 +191,20 @@ std::vector<std::vector<std::string>> CandidateRows(const DiagnoseReport& r) {
   return rows;
 }
 
+// In `agvcal solve`'s order (docs/units.md): the drive's parameters as the robot file lists them,
+// then the sensor's mount x, y, yaw, then anything else by name.
 std::vector<std::vector<std::string>> CalibrationRows(const DiagnoseReport& r) {
+  std::vector<std::string> names = r.param_names;
+  for (const char* axis : {".x", ".y", ".yaw"}) names.push_back(MotionSourceName(r.source) + std::string(axis));
+  for (const auto& [name, base] : r.calibration)
+    if (std::find(names.begin(), names.end(), name) == names.end()) names.push_back(name);
   std::vector<std::vector<std::string>> rows;
-  for (const auto& [name, base] : r.calibration) {
+  for (const std::string& name : names) {
+    const auto base = r.calibration.find(name);
+    if (base == r.calibration.end()) continue;
     const auto it = r.refitted.find(name);
     const std::string unit = ParamUnit(name);
-    rows.push_back({name, EstimateText(base.value, base.std, unit),
+    rows.push_back({name, EstimateText(base->second.value, base->second.std, unit),
                     it == r.refitted.end() ? "-" : EstimateText(it->second.value, it->second.std, unit)});
   }
   return rows;

@@ -109,4 +109,51 @@ std::vector<std::string> BarColumns(const std::vector<int>& counts, int height, 
   return rows;
 }
 
+namespace {
+
+int Cells(const std::string& s) {
+  int n = 0;
+  for (unsigned char c : s) n += (c & 0xC0) != 0x80;
+  return n;
+}
+
+// The first `cells` cells of a UTF-8 string.
+std::string FirstCells(const std::string& s, int cells) {
+  int n = 0;
+  for (std::size_t i = 0; i < s.size(); ++i)
+    if ((static_cast<unsigned char>(s[i]) & 0xC0) != 0x80 && n++ == cells) return s.substr(0, i);
+  return s;
+}
+
+}  // namespace
+
+std::vector<std::string> WrapWords(const std::string& text, int width, int max_lines) {
+  width = std::max(width, 4);
+  max_lines = std::max(max_lines, 1);
+  std::vector<std::string> words;
+  for (std::size_t start = 0; start < text.size();) {
+    std::size_t end = text.find(' ', start);
+    if (end == std::string::npos) end = text.size();
+    if (end > start) words.push_back(FirstCells(text.substr(start, end - start), width));
+    start = end + 1;
+  }
+  std::vector<std::string> lines(1);
+  std::size_t i = 0;
+  for (; i < words.size(); ++i) {
+    const bool fits = lines.back().empty() || Cells(lines.back()) + 1 + Cells(words[i]) <= width;
+    if (!fits) {
+      if (static_cast<int>(lines.size()) == max_lines) break;
+      lines.emplace_back();
+    }
+    lines.back() += (lines.back().empty() ? "" : " ") + words[i];
+  }
+  if (i < words.size()) {  // more words than lines: the last line ends at a word, with "..."
+    std::string& last = lines.back();
+    while (Cells(last) + 3 > width && last.find(' ') != std::string::npos) last.resize(last.rfind(' '));
+    if (Cells(last) + 3 > width) last = FirstCells(last, width - 3);
+    last += "...";
+  }
+  return lines;
+}
+
 }  // namespace calib

@@ -20,6 +20,14 @@ namespace calib {
 // page and summary.txt.
 std::string SolveVerdict(const CalibrationResult& result);
 
+// A residual's angle or a heading error in milliradians with degrees beside, as a residual's
+// length is in mm (docs/units.md): "0.0705 mrad (0.00404 deg)", `significant` digits each.
+std::string MilliradiansText(double radians, int significant = 3);
+
+// The calibration as the console shows it (`agvcal solve`, and agvcal-solver at its end): the
+// residual RMS, then one row per value with its sigma, unit and nominal value, the weak ones.
+std::string CalibrationConsoleText(const CalibrationResult& result);
+
 // The text of summary.txt (also the top of index.html): the verdict, then the figures.
 std::string SolveReportSummary(const CalibrationResult& result, const std::string& log_path);
 

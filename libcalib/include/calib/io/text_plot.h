@@ -30,4 +30,9 @@ std::vector<std::string> DotPlot(const std::vector<double>& values, int width, i
 // `#` in ASCII); a non-zero count shows at least its lowest mark. Rows top first.
 std::vector<std::string> BarColumns(const std::vector<int>& counts, int height, Glyphs glyphs);
 
+// The words of `text` in lines of at most `width` cells (UTF-8), at most `max_lines` of them:
+// a text that needs more ends its last line at a word with "..." rather than mid-sentence or
+// silently short. A word longer than a line is cut. At least one line (empty for no text).
+std::vector<std::string> WrapWords(const std::string& text, int width, int max_lines);
+
 }  // namespace calib
