@@ -9,6 +9,7 @@
 
 #include "calib/calibrate/recording_input.h"
 #include "calib/sim/simulator.h"
+#include "match/deskew_correction.h"
 #include "sim_log.h"
 
 namespace calib {
@@ -41,6 +42,32 @@ TEST(LowRate, FourHertzHalfCircleLidarFarFromItsNominalMountIsCalibrated) {
   ExpectNear("lidar2d.yaw", result.mount_yaw, config.true_lidar2d.yaw, 2e-3);
   // The turns are matched, not set aside.
   EXPECT_LT(result.residual.outliers, result.residual.intervals / 10);
+}
+
+// The correction a pair's match gives: over a turn, the mount position that carries the robot's
+// motion onto the match (damped by the turn), the rest as a twist; a straight pair leaves the
+// mount and puts the whole difference into the twist.
+TEST(LowRate, CorrectionFromMatchFindsTheMountOverATurnAndLeavesItOnAStraight) {
+  const Pose2 nominal{0.20, 0.0, 0.0}, truth{0.78, -0.01, 0.0};
+  const Pose2 turn{0.0, 0.0, 0.5};
+  DeskewCorrection c = CorrectionFromMatch(turn, nominal, Between(truth, Compose(turn, truth)), 0.5);
+  const double kept = (2 - 2 * std::cos(0.5)) / (2 - 2 * std::cos(0.5) + 0.05 * 0.05);  // the damping
+  EXPECT_NEAR(c.mount.x, nominal.x + kept * (truth.x - nominal.x), 1e-9);
+  EXPECT_NEAR(c.mount.y, nominal.y + kept * (truth.y - nominal.y), 1e-9);
+  // What the mount leaves, the twist carries: together they give the match.
+  const Pose2 matched = Between(truth, Compose(turn, truth));
+  const Pose2 rebuilt = CorrectedSensorMotion(c, turn, 0.5);
+  EXPECT_NEAR(rebuilt.x, matched.x, 1e-9);
+  EXPECT_NEAR(rebuilt.y, matched.y, 1e-9);
+  EXPECT_NEAR(rebuilt.theta, matched.theta, 1e-9);
+
+  const Pose2 straight{0.5, 0.0, 0.0}, slid{0.51, 0.002, 0.001};
+  c = CorrectionFromMatch(straight, nominal, slid, 0.5);
+  EXPECT_NEAR(c.mount.x, nominal.x, 1e-3);
+  EXPECT_NEAR(c.mount.y, nominal.y, 1e-3);
+  const Pose2 straight_rebuilt = CorrectedSensorMotion(c, straight, 0.5);
+  EXPECT_NEAR(straight_rebuilt.x, slid.x, 1e-9);
+  EXPECT_NEAR(straight_rebuilt.y, slid.y, 1e-9);
 }
 
 }  // namespace
