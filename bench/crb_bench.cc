@@ -1,6 +1,7 @@
 // agvcal-bench-crb: the calibration's accuracy against the Cramér–Rao bound (issue 19).
 //
 //   agvcal-bench-crb [--seeds N] [--sim NAME.yaml]... [--nominal-is-truth] [--single-pass]
+//                    [--max-rmse-crb R] [--min-sigma-rmse S]
 //
 // For each simulation config (default: config/sims/diff_robot.yaml, forklift.yaml,
 // dual_steer_agv.yaml) simulates the default trajectory with seeds 1..N (default 50), and for
@@ -25,6 +26,7 @@
 #include <cstdio>
 #include <cstdlib>
 #include <iostream>
+#include <limits>
 #include <map>
 #include <memory>
 #include <optional>
@@ -182,9 +184,14 @@ struct BenchOptions {
   int seeds = 50;
   bool nominal_is_truth = false;
   bool single_pass = false;  // the scans matched once, with the robot file's values
+  // Bounds every value must meet (the CI smoke test); by default none.
+  double max_rmse_crb = std::numeric_limits<double>::infinity();
+  double min_sigma_rmse = 0.0;
 };
 
-void RunSim(const std::string& name, const BenchOptions& options) {
+// Prints the table of one drive; returns the number of seeds that failed to solve and of values
+// outside the options' bounds.
+int RunSim(const std::string& name, const BenchOptions& options) {
   calib::SimConfig base = calib::LoadSimConfig(std::string(AGVCAL_SOURCE_DIR) + "/config/sims/" + name);
   if (options.nominal_is_truth) {  // the robot file says the truth: de-skewing and priors exact
     base.robot.params = base.true_params;
@@ -260,12 +267,19 @@ void RunSim(const std::string& name, const BenchOptions& options) {
               measured.c0(2, 2), c1_correlation(0, 0), c1_correlation(1, 1), c1_correlation(2, 2));
   std::printf("  %-14s %11s %11s %11s %11s %11s %11s %9s %11s\n", "parameter", "truth", "RMSE", "bias", "sigma",
               "CRB(Σ)", "CRB", "RMSE/CRB", "sigma/RMSE");
+  int checks_failed = failed;
   for (int k = 0; k < p; ++k) {
     const double rmse = std::sqrt(sum_e2[k] / solved), bias = sum_e[k] / solved, sigma = sum_std[k] / solved;
     std::printf("  %-14s %11.6g %11.3g %+11.2g %11.3g %11.3g %11.3g %9.2f %11.2f\n", names[k].c_str(), truth[k],
                 rmse, bias, sigma, crb_matcher[k], crb[k], rmse / crb[k], sigma / rmse);
+    if (!(rmse / crb[k] <= options.max_rmse_crb) || !(sigma / rmse >= options.min_sigma_rmse)) {
+      std::printf("  FAILED: %s %s: RMSE/CRB %.2f (at most %.2f), sigma/RMSE %.2f (at least %.2f)\n", name.c_str(),
+                  names[k].c_str(), rmse / crb[k], options.max_rmse_crb, sigma / rmse, options.min_sigma_rmse);
+      ++checks_failed;
+    }
   }
   std::fflush(stdout);
+  return checks_failed;
 }
 
 int Run(int argc, char** argv) {
@@ -275,11 +289,14 @@ int Run(int argc, char** argv) {
     const std::string a = argv[i];
     if (a == "--help" || a == "-h") {
       std::cout << "usage: agvcal-bench-crb [--seeds N] [--sim NAME.yaml]... [--nominal-is-truth] [--single-pass]\n"
+                   "                        [--max-rmse-crb R] [--min-sigma-rmse S]\n"
                    "RMSE of the calibration over N seeds (default 50) of each drive's default trajectory\n"
                    "against the Cramér–Rao bound from the matcher's covariances. --nominal-is-truth: the\n"
                    "robot file's values set to the truth (de-skewing and odometry priors exact).\n"
                    "--single-pass: the scans matched once, with the robot file's values (no second pass\n"
-                   "de-skewed with the calibrated values, as `agvcal solve` had before).\n";
+                   "de-skewed with the calibrated values, as `agvcal solve` had before).\n"
+                   "--max-rmse-crb R, --min-sigma-rmse S: exit 1 when a seed fails to solve or a value's\n"
+                   "RMSE/CRB exceeds R or its mean reported sigma / RMSE is below S (the CI smoke test).\n";
       return calib::kExitOk;
     }
     if (a == "--seeds" && i + 1 < argc) {
@@ -288,6 +305,10 @@ int Run(int argc, char** argv) {
       options.nominal_is_truth = true;
     } else if (a == "--single-pass") {
       options.single_pass = true;
+    } else if (a == "--max-rmse-crb" && i + 1 < argc) {
+      options.max_rmse_crb = std::atof(argv[++i]);
+    } else if (a == "--min-sigma-rmse" && i + 1 < argc) {
+      options.min_sigma_rmse = std::atof(argv[++i]);
     } else if (a == "--sim" && i + 1 < argc) {
       sims.push_back(argv[++i]);
     } else {
@@ -295,8 +316,9 @@ int Run(int argc, char** argv) {
     }
   }
   if (sims.empty()) sims = {"diff_robot.yaml", "forklift.yaml", "dual_steer_agv.yaml"};
-  for (const std::string& s : sims) RunSim(s, options);
-  return calib::kExitOk;
+  int failed = 0;
+  for (const std::string& s : sims) failed += RunSim(s, options);
+  return failed == 0 ? calib::kExitOk : calib::kExitInternal;
 }
 
 }  // namespace
