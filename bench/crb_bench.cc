@@ -1,11 +1,13 @@
 // agvcal-bench-crb: the calibration's accuracy against the Cramér–Rao bound (issue 19).
 //
-//   agvcal-bench-crb [--seeds N] [--sim NAME.yaml]... [--nominal-is-truth]
+//   agvcal-bench-crb [--seeds N] [--sim NAME.yaml]... [--nominal-is-truth] [--single-pass]
+//                    [--max-rmse-crb R] [--min-sigma-rmse S]
 //
 // For each simulation config (default: config/sims/diff_robot.yaml, forklift.yaml,
 // dual_steer_agv.yaml) simulates the default trajectory with seeds 1..N (default 50), and for
 // each recording runs what `agvcal solve` runs (ReadCalibrationData: the scan matcher pipeline;
-// Calibrate) and compares every estimated value with the simulator's truth.
+// Calibrate; SolveAgainDeskewed: the scans matched again with the calibrated values, calibrated
+// again) and compares every estimated value with the simulator's truth.
 //
 // The bound: the Fisher information of the interval model at the TRUE values, J̃ᵀ Ω⁻¹ J̃, with J̃
 // the intervals' Jacobians (PredictSensorMotion with the true drive parameters and mount, central
@@ -24,8 +26,10 @@
 #include <cstdio>
 #include <cstdlib>
 #include <iostream>
+#include <limits>
 #include <map>
 #include <memory>
+#include <optional>
 #include <stdexcept>
 #include <string>
 #include <vector>
@@ -176,9 +180,20 @@ Eigen::MatrixXd Fisher(const Whitened& w, const NoiseModel& noise) {
   throw std::runtime_error("no positive definite noise model");
 }
 
-void RunSim(const std::string& name, int seeds, bool nominal_is_truth) {
+struct BenchOptions {
+  int seeds = 50;
+  bool nominal_is_truth = false;
+  bool single_pass = false;  // the scans matched once, with the robot file's values
+  // Bounds every value must meet (the CI smoke test); by default none.
+  double max_rmse_crb = std::numeric_limits<double>::infinity();
+  double min_sigma_rmse = 0.0;
+};
+
+// Prints the table of one drive; returns the number of seeds that failed to solve and of values
+// outside the options' bounds.
+int RunSim(const std::string& name, const BenchOptions& options) {
   calib::SimConfig base = calib::LoadSimConfig(std::string(AGVCAL_SOURCE_DIR) + "/config/sims/" + name);
-  if (nominal_is_truth) {  // the robot file says the truth: de-skewing and priors exact
+  if (options.nominal_is_truth) {  // the robot file says the truth: de-skewing and priors exact
     base.robot.params = base.true_params;
     base.robot.lidar2d->x = base.true_lidar2d.x;
     base.robot.lidar2d->y = base.true_lidar2d.y;
@@ -191,7 +206,7 @@ void RunSim(const std::string& name, int seeds, bool nominal_is_truth) {
   Eigen::VectorXd sum_e2 = Eigen::VectorXd::Zero(p), sum_std = Eigen::VectorXd::Zero(p), sum_e = sum_e2;
   int solved = 0, failed = 0;
   const std::string log = "/tmp/agvcal_bench_crb_" + std::to_string(getpid()) + ".log";
-  for (int seed = 1; seed <= seeds; ++seed) {
+  for (int seed = 1; seed <= options.seeds; ++seed) {
     calib::SimConfig sim = base;
     sim.seed = seed;
     {
@@ -199,27 +214,34 @@ void RunSim(const std::string& name, int seeds, bool nominal_is_truth) {
       calib::RunOffline(sim, calib::OfflineRunOptions{}, &writer);
       writer.Close();
     }
+    // As SolveLog: the scans matched with the robot file's values, calibrated, matched again with
+    // the calibrated values and calibrated again; the bound on the motions of the last pass.
     const calib::CalibrationData data =
         calib::ReadCalibrationData(sim.robot, log, calib::MotionSource::kLidar2d, nullptr);
-    recordings.push_back(AtTruth(sim.robot, names, truth, data.wheels(), data.motions()));
+    calib::SecondPassInput again;
+    again.motions = data.motions();
+    std::optional<calib::CalibrationResult> r;
     try {
-      const calib::CalibrationResult r = calib::Calibrate(sim.robot, data.wheels(), data.motions(),
-                                                          calib::MotionSource::kLidar2d, {}, log);
-      for (int k = 0; k < p; ++k) {
-        const calib::Estimate& est = names[k] == "mount_x"   ? r.mount_x
-                                     : names[k] == "mount_y" ? r.mount_y
-                                     : names[k] == "mount_yaw" ? r.mount_yaw
-                                                             : r.params.at(names[k]);
-        const double e = est.value - truth[k];
-        sum_e[k] += e;
-        sum_e2[k] += e * e;
-        sum_std[k] += est.std;
-      }
-      ++solved;
+      r = calib::Calibrate(sim.robot, data.wheels(), data.motions(), calib::MotionSource::kLidar2d, {}, log);
+      if (!options.single_pass) r = calib::SolveAgainDeskewed(sim.robot, log, *r, {}, log, &again);
     } catch (const std::exception& ex) {
+      r.reset();
       ++failed;
       std::fprintf(stderr, "%s seed %d: %s\n", name.c_str(), seed, ex.what());
     }
+    recordings.push_back(AtTruth(sim.robot, names, truth, data.wheels(), again.motions));
+    if (!r) continue;
+    for (int k = 0; k < p; ++k) {
+      const calib::Estimate& est = names[k] == "mount_x"     ? r->mount_x
+                                   : names[k] == "mount_y"   ? r->mount_y
+                                   : names[k] == "mount_yaw" ? r->mount_yaw
+                                                             : r->params.at(names[k]);
+      const double e = est.value - truth[k];
+      sum_e[k] += e;
+      sum_e2[k] += e * e;
+      sum_std[k] += est.std;
+    }
+    ++solved;
   }
   std::remove(log.c_str());
   // Two bounds: the matcher's covariances as they are, intervals independent (Ω = I), and the
@@ -241,35 +263,52 @@ void RunSim(const std::string& name, int seeds, bool nominal_is_truth) {
   std::printf("%s: %d seeds solved (%d failed), %.0f intervals per recording; whitened errors at the truth: "
               "variance %.2f %.2f %.2f (1 if the matcher's covariances were exact), neighbour correlation "
               "%.2f %.2f %.2f\n",
-              name.c_str(), solved, failed, double(intervals) / seeds, measured.c0(0, 0), measured.c0(1, 1),
+              name.c_str(), solved, failed, double(intervals) / options.seeds, measured.c0(0, 0), measured.c0(1, 1),
               measured.c0(2, 2), c1_correlation(0, 0), c1_correlation(1, 1), c1_correlation(2, 2));
   std::printf("  %-14s %11s %11s %11s %11s %11s %11s %9s %11s\n", "parameter", "truth", "RMSE", "bias", "sigma",
               "CRB(Σ)", "CRB", "RMSE/CRB", "sigma/RMSE");
+  int checks_failed = failed;
   for (int k = 0; k < p; ++k) {
     const double rmse = std::sqrt(sum_e2[k] / solved), bias = sum_e[k] / solved, sigma = sum_std[k] / solved;
     std::printf("  %-14s %11.6g %11.3g %+11.2g %11.3g %11.3g %11.3g %9.2f %11.2f\n", names[k].c_str(), truth[k],
                 rmse, bias, sigma, crb_matcher[k], crb[k], rmse / crb[k], sigma / rmse);
+    if (!(rmse / crb[k] <= options.max_rmse_crb) || !(sigma / rmse >= options.min_sigma_rmse)) {
+      std::printf("  FAILED: %s %s: RMSE/CRB %.2f (at most %.2f), sigma/RMSE %.2f (at least %.2f)\n", name.c_str(),
+                  names[k].c_str(), rmse / crb[k], options.max_rmse_crb, sigma / rmse, options.min_sigma_rmse);
+      ++checks_failed;
+    }
   }
   std::fflush(stdout);
+  return checks_failed;
 }
 
 int Run(int argc, char** argv) {
-  int seeds = 50;
-  bool nominal_is_truth = false;
+  BenchOptions options;
   std::vector<std::string> sims;
   for (int i = 1; i < argc; ++i) {
     const std::string a = argv[i];
     if (a == "--help" || a == "-h") {
-      std::cout << "usage: agvcal-bench-crb [--seeds N] [--sim NAME.yaml]... [--nominal-is-truth]\n"
+      std::cout << "usage: agvcal-bench-crb [--seeds N] [--sim NAME.yaml]... [--nominal-is-truth] [--single-pass]\n"
+                   "                        [--max-rmse-crb R] [--min-sigma-rmse S]\n"
                    "RMSE of the calibration over N seeds (default 50) of each drive's default trajectory\n"
                    "against the Cramér–Rao bound from the matcher's covariances. --nominal-is-truth: the\n"
-                   "robot file's values set to the truth (de-skewing and odometry priors exact).\n";
+                   "robot file's values set to the truth (de-skewing and odometry priors exact).\n"
+                   "--single-pass: the scans matched once, with the robot file's values (no second pass\n"
+                   "de-skewed with the calibrated values, as `agvcal solve` had before).\n"
+                   "--max-rmse-crb R, --min-sigma-rmse S: exit 1 when a seed fails to solve or a value's\n"
+                   "RMSE/CRB exceeds R or its mean reported sigma / RMSE is below S (the CI smoke test).\n";
       return calib::kExitOk;
     }
     if (a == "--seeds" && i + 1 < argc) {
-      seeds = std::max(2, std::atoi(argv[++i]));
+      options.seeds = std::max(2, std::atoi(argv[++i]));
     } else if (a == "--nominal-is-truth") {
-      nominal_is_truth = true;
+      options.nominal_is_truth = true;
+    } else if (a == "--single-pass") {
+      options.single_pass = true;
+    } else if (a == "--max-rmse-crb" && i + 1 < argc) {
+      options.max_rmse_crb = std::atof(argv[++i]);
+    } else if (a == "--min-sigma-rmse" && i + 1 < argc) {
+      options.min_sigma_rmse = std::atof(argv[++i]);
     } else if (a == "--sim" && i + 1 < argc) {
       sims.push_back(argv[++i]);
     } else {
@@ -277,8 +316,9 @@ int Run(int argc, char** argv) {
     }
   }
   if (sims.empty()) sims = {"diff_robot.yaml", "forklift.yaml", "dual_steer_agv.yaml"};
-  for (const std::string& s : sims) RunSim(s, seeds, nominal_is_truth);
-  return calib::kExitOk;
+  int failed = 0;
+  for (const std::string& s : sims) failed += RunSim(s, options);
+  return failed == 0 ? calib::kExitOk : calib::kExitInternal;
 }
 
 }  // namespace

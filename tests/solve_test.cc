@@ -142,7 +142,7 @@ TEST(Solve, SecondPassOnARecordingStillBeingWrittenGivesSolveLogsResult) {
   const CalibrationData data = ReadCalibrationData(robot, log, MotionSource::kLidar2d, nullptr);
   const CalibrationResult first =
       Calibrate(robot, data.wheels(), data.motions(), MotionSource::kLidar2d, options.calibration, log);
-  ASSERT_TRUE(SolvesAgainDeskewed(MotionSource::kLidar2d, options.calibration, first));
+  ASSERT_TRUE(SolvesAgainDeskewed(MotionSource::kLidar2d));
   SecondPassInput read;
   const CalibrationResult live = SolveAgainDeskewed(robot, growing, first, options.calibration, log, &read);
   std::remove(growing.c_str());

@@ -25,6 +25,7 @@ void Declare(agvcal_process::CommandLine* args) {
   args->Description(R"(Calibrates the drive parameters of ROBOT.yaml and the mount of its 2D lidar
 (scans scan-matched) or of its external pose source (POSE) from a recording
 with WHEELS, jointly, by maximum likelihood, with one-sigma uncertainties.
+Scans are matched twice: the second time de-skewed with the first fit's values.
 A differential drive with an IMU and no lidar (source imu, docs/imu.md) is
 calibrated with the gyro as the rotation reference and a measured distance as
 the scale, with the gyro's bias, scale (given a measured turn), mount yaw and
@@ -51,8 +52,8 @@ time offset. Prints a summary; RESULT.json follows docs/spec/cli.md.)")
             "also estimate the lidar-to-wheel time offset (within +-0.5 s,\n"
             "searched again over twice the range, up to +-2 s, when it\n"
             "lies at the bound: a global search, then the joint fit; the\n"
-            "same estimate agvcal diagnose starts from); the scans are then\n"
-            "matched again, de-skewed with the calibrated model and offset")
+            "same estimate agvcal diagnose starts from); the scans' second\n"
+            "matching is then on the wheel clock, at the offset found")
       .Option("--fit-fraction", "F",
               "fit on the first fraction F of the recording, and compare the\n"
               "calibrated with the nominal model's odometry on the rest:\n"

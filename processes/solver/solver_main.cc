@@ -6,8 +6,8 @@
 // recording ends with the numbers `agvcal solve` gives for it. With
 // --catch-up (as scripts/agvcal-group runs it) a solver restarted mid-run first
 // takes what it missed from the group's recording, and ends with the same numbers.
-// With --time-offset the final solve, as `agvcal solve --time-offset`'s, matches the
-// scans a second time, de-skewed with the calibrated model: the solver holds only the
+// With SCAN_MATCH the final solve, as `agvcal solve`'s, matches the scans a second
+// time, de-skewed with the calibrated model (and offset): the solver holds only the
 // motions, so it reads the scans again from that recording (calib::SolveAgainDeskewed).
 #include <lcm/lcm-cpp.hpp>
 #include <malloc.h>
@@ -44,15 +44,16 @@ CALIB_RESIDUALS (per-interval residuals), and HEARTBEAT.)")
       .Option("--every", "N", "re-solve after N new motions (default 20: about every 12 s of\n"
               "the bundled samples, whose scan matcher gives a motion per 0.6 s)")
       .Flag("--time-offset",
-            "also estimate the lidar-to-wheel time offset; with SCAN_MATCH and\n"
-            "--catch-up, the final solve then matches the recording's scans a\n"
-            "second time, de-skewed with the calibrated model, as `agvcal solve\n"
-            "--time-offset` does (without --catch-up: once, and said on stderr)")
+            "also estimate the lidar-to-wheel time offset (the final solve's second\n"
+            "pass then de-skews on the wheel clock, as `agvcal solve --time-offset`)")
       .Option("--out", "RESULT.json", "on exit, solve on all data and write the result (docs/spec/cli.md)")
       .Option("--catch-up", "RECORDING",
               "on start, first read the inputs published so far from the\n"
               "group's recording (lcm-logger's file, still being written),\n"
-              "then continue live; each message is used once (by stamp)")
+              "then continue live; each message is used once (by stamp).\n"
+              "With SCAN_MATCH the final solve then matches the recording's\n"
+              "scans a second time, de-skewed with the calibrated model, as\n"
+              "`agvcal solve` does (without --catch-up: once, said on stderr)")
       .Option("--lcm-url", "URL", agvcal_process::kLcmUrlHelp)
       .Footer("A message that does not decode or convert is skipped, counted and reported once.\n"
               "Exit status: 0 stopped by SIGINT/SIGTERM (after the final solve), 2 bad robot\n"
@@ -139,7 +140,7 @@ class Solver {
     holding_solves_ = true;  // no new one
     Poll(true /* wait */);
     calib::CalibrationResult result = Calibrate();
-    if (calib::SolvesAgainDeskewed(source_, options_, result)) result = SolveAgain(result);
+    if (calib::SolvesAgainDeskewed(source_)) result = SolveAgain(result);
     Publish(result, true);
     return result;
   }
@@ -160,12 +161,12 @@ class Solver {
   // or that cannot be read, is said on stderr; the latter leaves the first pass's result.
   calib::CalibrationResult SolveAgain(const calib::CalibrationResult& first) {
     if (recording_.empty()) {
-      std::cerr << "agvcal-solver: no recording (--catch-up) to match the scans again from: the time offset "
-                   "is the first pass's, not `agvcal solve --time-offset`'s\n";
+      std::cerr << "agvcal-solver: no recording (--catch-up) to match the scans again from: the result "
+                   "is the first pass's, not `agvcal solve`'s\n";
       return first;
     }
     std::cerr << "agvcal-solver: matching the scans of " << recording_
-              << " again, de-skewed with the calibrated model and offset\n";
+              << " again, de-skewed with the calibrated model\n";
     const calib::WheelTrack& wheels = data_.wheels();
     for (int attempt = 1;; ++attempt) {
       if (attempt > 1) std::this_thread::sleep_for(std::chrono::seconds(1));
@@ -176,14 +177,14 @@ class Solver {
         result = calib::SolveAgainDeskewed(robot_, recording_, first, options_, origin(), &read);
       } catch (const calib::InputError& e) {
         std::cerr << "agvcal-solver: cannot match the scans again (" << e.what()
-                  << "): the time offset is the first pass's\n";
+                  << "): the result is the first pass's\n";
         return first;
       }
       if (attempt == 1 && !wheels.empty() && read.last_wheel_utime < wheels.last_utime()) continue;
       if (read.wheel_states != wheels.size()) {
         std::cerr << "agvcal-solver: the recording holds " << read.wheel_states << " wheel states, the solver received "
                   << wheels.size() << ": the second pass is on the recording's, so the result differs from `agvcal "
-                     "solve --time-offset`'s on the messages the group had\n";
+                     "solve`'s on the messages the group had\n";
       }
       return result;
     }

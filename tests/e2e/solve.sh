@@ -1,7 +1,8 @@
 #!/usr/bin/env bash
 # `agvcal solve` end to end, and the live solver giving its numbers: a recording
 # replayed with lcm-logplayer into agvcal-scanmatch + agvcal-solver (in a private
-# network namespace) ends with the RESULT.json `agvcal solve` writes for it, value
+# network namespace; the solver's final solve matches the scans again from the recording
+# an lcm-logger writes) ends with the RESULT.json `agvcal solve` writes for it, value
 # for value. Bad input exits 2, a straight-only recording exits 3.
 source "$(dirname "$0")/lib.bash" "$@"
 robot=config/robots/forklift.yaml
@@ -20,17 +21,23 @@ for k in ("intervals", "outliers", "rms_x", "rms_y", "rms_yaw"): assert k in r["
 assert "condition" in r["observability"] and "weak" in r["observability"]
 PY
 
-start_logger "$TMP/beats.log" HEARTBEAT
+# The solver's final solve matches the scans a second time, from the recording it catches up
+# from (calib::SolveAgainDeskewed), as in the group: an lcm-logger writes that recording.
+start_logger "$TMP/recording.log" ".*"
 "$BUILD/agvcal-scanmatch" "$robot" 2> "$TMP/scanmatch.err" & matcher=$!
-"$BUILD/agvcal-solver" "$robot" --out "$TMP/live.json" 2> "$TMP/solver.err" & solver=$!
-wait_ready "$TMP/beats.log" scanmatch solver && timeout 120 lcm-logplayer -s 4 "$log"
+"$BUILD/agvcal-solver" "$robot" --out "$TMP/live.json" --catch-up "$TMP/recording.log" 2> "$TMP/solver.err" & solver=$!
+wait_ready "$TMP/recording.log" scanmatch solver && timeout 120 lcm-logplayer -s 4 "$log"
 # SIGINT: each handles what it has received first; the matcher's last matches, published
 # as it stops, are in the solver's queue when the solver stops.
 stop $matcher agvcal-scanmatch
 stop $solver agvcal-solver; status=$?
-stop_logger "$TMP/beats.log"
+stop_logger "$TMP/recording.log"
 [ $status -eq 0 ] && pass "replay into agvcal-scanmatch + agvcal-solver (exit 0)" ||
   fail "agvcal-solver exit $status: $(tail -c 400 "$TMP/solver.err")"
+grep -q "agvcal-solver: matching the scans of $TMP/recording.log again" "$TMP/solver.err" &&
+  ! grep -q "wheel states, the solver received\|cannot match the scans again" "$TMP/solver.err" &&
+  pass "the final solve matched the recorded scans again, on every wheel state the solver received" ||
+  fail "no second pass on the solver's data: $(tail -c 400 "$TMP/solver.err")"
 python3 - "$TMP/offline.json" "$TMP/live.json" <<'PY' && pass "live result equals agvcal solve's" || fail "live result differs: $(diff "$TMP/offline.json" "$TMP/live.json" | head -20)"
 import json, sys
 a, b = (json.load(open(p)) for p in sys.argv[1:3])

@@ -5,7 +5,6 @@
 #include <algorithm>
 #include <cmath>
 #include <optional>
-#include <stdexcept>
 #include <vector>
 
 #include "calib/core/errors.h"
@@ -149,25 +148,25 @@ CalibrationData ReadCalibrationData(const RobotDescription& robot, const std::st
   return data;
 }
 
-bool SolvesAgainDeskewed(MotionSource source, const CalibrationOptions& options, const CalibrationResult& first) {
-  return source == MotionSource::kLidar2d && options.estimate_time_offset && first.time_offset.has_value();
-}
+bool SolvesAgainDeskewed(MotionSource source) { return source == MotionSource::kLidar2d; }
 
 CalibrationResult SolveAgainDeskewed(const RobotDescription& robot, const std::string& log_path,
                                      const CalibrationResult& first, const CalibrationOptions& options,
                                      const std::string& origin, SecondPassInput* read) {
-  if (!first.time_offset) throw std::logic_error("SolveAgainDeskewed: the first pass has no time offset");
   CalibrationResult result = first;
   for (int pass = 0; pass < kMaxDeskewedPasses; ++pass) {
-    const double matched_at = result.time_offset->value;
+    const double matched_at = result.time_offset ? result.time_offset->value : 0.0;
     const CalibrationData again =
         ReadCalibrationData(Calibrated(robot, result), log_path, MotionSource::kLidar2d, nullptr, nullptr,
                             std::llround(matched_at * 1e6), RecordingSource::Mode::kGrowing);
     if (read) {
       read->wheel_states = again.wheels().size();
       read->last_wheel_utime = again.wheels().empty() ? 0 : again.wheels().last_utime();
+      read->motions = again.motions();
     }
     result = Calibrate(robot, again.wheels(), again.motions(), MotionSource::kLidar2d, options, origin);
+    // Without a time offset one pass: the first pass's model is within its sigmas of the truth,
+    // and a de-skew model that close leaves no error of note.
     if (!result.time_offset ||
         std::abs(result.time_offset->value - matched_at) <= kDeskewedAgreeSigmas * result.time_offset->std)
       break;
@@ -199,9 +198,9 @@ CalibrationResult SolveLog(const RobotDescription& robot, const std::string& log
     if (skip == notes.end() || e.file() != log_path) throw;
     throw InputError(e.file(), e.place(), e.problem() + "; the reader left out part of it: " + *skip);
   }
-  if (SolvesAgainDeskewed(source, options.calibration, result)) {
-    // Match again, de-skewed with the calibrated model on the wheel clock (recording_input.h).
-    if (options.progress) options.progress("matching the scans again, de-skewed with the calibrated model and offset");
+  if (SolvesAgainDeskewed(source)) {
+    // Match again, de-skewed with the calibrated model (and offset) on the wheel clock (recording_input.h).
+    if (options.progress) options.progress("matching the scans again, de-skewed with the calibrated model");
     result = SolveAgainDeskewed(robot, log_path, result, options.calibration, log_path);
   }
   result.input_dropped = data.dropped_input();

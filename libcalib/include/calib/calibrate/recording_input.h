@@ -10,6 +10,7 @@
 #include <functional>
 #include <optional>
 #include <string>
+#include <vector>
 
 #include "calib/calibrate/calibration.h"
 #include "calib/calibrate/calibration_data.h"
@@ -64,21 +65,26 @@ CalibrationData ReadCalibrationData(const RobotDescription& robot, const std::st
                                     int64_t deskew_shift_us = 0,
                                     RecordingSource::Mode mode = RecordingSource::Mode::kComplete);
 
-// Whether `solve` runs a second pass (SolveAgainDeskewed) after the first pass `first`: on
-// scans, with the time offset.
-bool SolvesAgainDeskewed(MotionSource source, const CalibrationOptions& options, const CalibrationResult& first);
+// Whether `solve` runs a second pass (SolveAgainDeskewed) after the first: on scans (their
+// de-skewing and the choice of keyframes follow the model the matcher predicts with).
+bool SolvesAgainDeskewed(MotionSource source);
 
-// What of the wheel data the second pass read (to compare with what the first pass had).
+// What the second pass read: its wheel data (to compare with what the first pass had) and the
+// motions its last pass calibrated on.
 struct SecondPassInput {
   std::size_t wheel_states = 0;
   int64_t last_wheel_utime = 0;  // 0 without wheel states
+  std::vector<SensorMotion> motions;
 };
 
-// The second pass of `solve --time-offset` (SolveLog), given the first pass's result `first` (with
-// its time offset): the scans of `log_path` matched again, de-skewed with `first`'s calibrated
-// model on the wheel clock (ReadCalibrationData's deskew_shift_us: the offset found), and
-// calibrated again with `options`; `origin` names the input in errors. Repeated from each pass's
-// result until the offset found is the one the scans were matched at (within
+// The second pass of `solve` (SolveLog), given the first pass's result `first`: the scans of
+// `log_path` matched again, de-skewed (and their keyframes chosen) with `first`'s calibrated model,
+// on the wheel clock when `first` has a time offset (ReadCalibrationData's deskew_shift_us: the
+// offset found), and calibrated again with `options`; `origin` names the input in errors. The first
+// pass matched with the robot file's values: a mount or drive model off by a degree or a per cent
+// de-skews every scan with an error that turns with the robot, and the mount absorbed it (a bias
+// of several sigmas, docs/calibration.md). Without a time offset one pass. With one it is repeated
+// from each pass's result until the offset found is the one the scans were matched at (within
 // kDeskewedAgreeSigmas of its sigma), at most kMaxDeskewedPasses times: which scans are matched
 // (the keyframes) follows the wheel motion predicted between their stamps, so the first pass's
 // offset, itself matched on the recorded stamps, chose them, and on slow scan streams that moved
@@ -92,13 +98,14 @@ CalibrationResult SolveAgainDeskewed(const RobotDescription& robot, const std::s
                                      const CalibrationResult& first, const CalibrationOptions& options,
                                      const std::string& origin, SecondPassInput* read = nullptr);
 
-// `agvcal solve`: the motion source (ChooseMotionSource), the data, the calibration. With the
-// time offset (options.calibration.estimate_time_offset) and scans, the scans are matched a
-// second time, de-skewed with the calibrated model on the wheel clock (the offset found), and
-// calibrated again, as `agvcal diagnose` does: the matcher places a scan at its mean beam time,
-// so the nominal de-skew model's error over that lead (its relative turn-rate error times the
-// lead) otherwise reads as a small time offset (docs/calibration.md). The second
-// pass is SolveAgainDeskewed, which the live agvcal-solver --time-offset runs too.
+// `agvcal solve`: the motion source (ChooseMotionSource), the data, the calibration. With scans,
+// the scans are then matched a second time, de-skewed with the calibrated model (on the wheel
+// clock: the offset found, with the time offset), and calibrated again (SolveAgainDeskewed), as
+// `agvcal diagnose` does: the robot file's values the first pass de-skewed with leave an error
+// that the mount absorbs, and, with the time offset, the matcher places a scan at its mean beam
+// time, so the nominal model's error over that lead (its relative turn-rate error times the lead)
+// otherwise reads as a small time offset (docs/calibration.md). The live agvcal-solver runs the
+// same second pass in its final solve.
 CalibrationResult SolveLog(const RobotDescription& robot, const std::string& log_path,
                            const SolveLogOptions& options);
 
