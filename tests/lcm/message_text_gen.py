@@ -9,7 +9,7 @@ import os
 import sys
 
 sys.path.insert(0, os.path.join(os.path.dirname(__file__), '..', '..', 'lcmtypes'))
-from layouts import parse  # noqa: E402
+from layouts import parse, write_if_changed  # noqa: E402
 
 SAMPLE_LENGTH = 2
 
@@ -63,13 +63,7 @@ def main():
     for _, _, sample in codes:
         lines += sample
     lines += ['  return samples;', '}', '']
-    text = '\n'.join(lines)
-    try:
-        if open(out, encoding='utf-8').read() == text:
-            return
-    except OSError:
-        pass
-    open(out, 'w', encoding='utf-8').write(text)
+    write_if_changed(out, '\n'.join(lines))
 
 
 if __name__ == '__main__':
