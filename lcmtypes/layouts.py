@@ -68,7 +68,11 @@ def main():
     lines.append('inline constexpr MessageLayout kMessageLayouts[] = {')
     lines += table
     lines += ['};', '', '}  // namespace calib', '']
-    text = '\n'.join(lines)
+    write_if_changed(out, '\n'.join(lines))
+
+
+def write_if_changed(out, text):
+    """Writes `text` to `out` unless it holds it already (so that make rebuilds nothing)."""
     try:
         if open(out, encoding='utf-8').read() == text:
             return

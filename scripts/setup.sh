@@ -13,7 +13,8 @@ packages=(build-essential cmake pkg-config ccache git iproute2 util-linux procps
   clang libclang-rt-14-dev
   python3-distributed python3-scipy python3-yaml python3-psycopg2 postgresql chromium python3-matplotlib
   libsqlite3-dev libzstd-dev liblz4-dev libssl-dev liburdfdom-dev nodejs
-  python3-rosbag python3-sensor-msgs python3-nav-msgs python3-geometry-msgs python3-tf2-msgs)
+  python3-rosbag python3-sensor-msgs python3-nav-msgs python3-geometry-msgs python3-tf2-msgs
+  liblcm-java default-jdk-headless)
 sudo=""
 [ "$(id -u)" -eq 0 ] || sudo=sudo
 missing=()

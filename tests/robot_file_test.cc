@@ -4,6 +4,7 @@
 
 #include <cstdio>
 #include <fstream>
+#include <iterator>
 #include <string>
 #include <utility>
 
@@ -350,6 +351,23 @@ TEST(RobotFileTest, RosBlock) {
   ASSERT_TRUE(example.ros.has_value());
   EXPECT_EQ(example.ros->wheel_joints.at("right"), "right_wheel_joint");
   EXPECT_EQ(example.ros->cmd_vel, "/cmd_vel");
+}
+
+// ros.odom as the drive's own odometry (docs/ros.md): a differential drive's only.
+TEST(RobotFileTest, RosOdomAsWheels) {
+  std::ifstream in(std::string(AGVCAL_SOURCE_DIR) + "/config/robots/ros/diff_robot.yaml");
+  std::string diff((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>());
+  diff = diff.substr(0, diff.find("ros:\n"));
+  const RobotDescription robot = ParseRobot(diff + "ros:\n  odom: {topic: /wheel_odom, as: wheels}\n", kOrigin);
+  EXPECT_EQ(robot.ros->odom, "/wheel_odom");
+  EXPECT_TRUE(robot.ros->odom_as_wheels);
+  const RobotDescription pose = ParseRobot(diff + "ros:\n  odom: {as: pose}\n", kOrigin);
+  EXPECT_EQ(pose.ros->odom, "/odom");
+  EXPECT_FALSE(pose.ros->odom_as_wheels);
+  EXPECT_FALSE(ParseRobot(diff + "ros:\n  odom: /odom\n", kOrigin).ros->odom_as_wheels);
+  ExpectError(kTricycle + std::string("ros:\n  odom: {as: wheels}\n"), 11, "ros.odom",
+              "only a differential drive's wheels follow from its poses, this is a tricycle drive");
+  ExpectError(kTricycle + std::string("ros:\n  odom: {as: wheel}\n"), 11, "ros.odom.as", "expected pose");
 }
 
 }  // namespace

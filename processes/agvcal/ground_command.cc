@@ -1,17 +1,22 @@
 #include <iostream>
+#include <vector>
 
 #include "calib/core/errors.h"
 #include "calib/core/robot.h"
 #include "calib/ground/ground.h"
+#include "calib/ground/ground_ros.h"
 #include "calib/ground/ground_session.h"
 #include "calib/io/atomic_file.h"
 #include "commands.h"
 #include "common/process_util.h"
 #include "common/provenance.h"
+#include "common/ros_outputs.h"
 
 namespace agvcal_cli {
 
 namespace {
+const agvcal_process::RosOutputs kRosOutputs{false, true, "lidar"};
+
 // The command line: arguments, options and the help made from them.
 void Declare(agvcal_process::CommandLine* args) {
   args->Description(R"(Calibrates the 3D lidar's height, pitch and roll above the floor (robot file
@@ -35,8 +40,9 @@ rotation range. Method and options: docs/ground.md.)")
               "human report (docs/reports.md): index.html, summary.txt and SVG plots\n"
               "of the floor points coloured by their height above the calibrated\n"
               "floor, every frame's fit, the mount and per-sector tables")
-      .Flag("--quiet", "no table on stdout")
-      .Footer("Exit status: 0 calibrated, 2 unusable input (names file, place, problem), 3 the\n"
+      .Flag("--quiet", "no table on stdout");
+  agvcal_process::DeclareRosOutputs(args, kRosOutputs);
+  args->Footer("Exit status: 0 calibrated, 2 unusable input (names file, place, problem), 3 the\n"
               "floor does not determine the answer (too little floor in view, the robot among\n"
               "obstacles, a floor that tilts between frames, a sector without data), 1 internal.\n");
 }
@@ -50,8 +56,11 @@ int Ground(int argc, char** argv) {
   agvcal_process::RecordProvenance(args, &robot, args.positional[1]);
   const calib::GroundOptions options =
       args.Has("--config") ? calib::LoadGroundOptions(args.Get("--config", "")) : calib::GroundOptions{};
+  std::vector<calib::OutputTarget> outputs_asked = {{"--out", args.Get("--out", "")},
+      {"--write-robot", args.Get("--write-robot", "")}, {"--report", args.Get("--report", ""), true}};
+  for (calib::OutputTarget& target : agvcal_process::RosOutputTargets(args, kRosOutputs)) outputs_asked.push_back(target);
   calib::CheckOutputs({args.positional[0], args.positional[1], args.Get("--config", "")},  // exit 2 before the work
-      {{"--out", args.Get("--out", "")}, {"--write-robot", args.Get("--write-robot", "")}, {"--report", args.Get("--report", ""), true}});
+                      outputs_asked);
   calib::GroundInput input;
   const calib::GroundResult result = calib::CalibrateGroundFile(
       robot, options, args.positional[1], !args.Has("--no-grid"), &input);
@@ -63,6 +72,10 @@ int Ground(int argc, char** argv) {
   if (args.Has("--write-robot"))
     outputs.WriteFile(args.Get("--write-robot", ""),
                       calib::GroundCalibratedRobotYaml(robot, result, args.positional[1]));
+  if (agvcal_process::WantsRosMount(args, kRosOutputs))
+    agvcal_process::WriteRosMount(args, kRosOutputs,
+                                  calib::Lidar3dRosMount(robot, result, agvcal_process::LidarFrame(args, kRosOutputs)),
+                                  calib::RecordingProvenance(args.positional[1], "agvcal ground"), &outputs);
   if (args.Has("--report")) calib::WriteGroundReportDir(robot, result, input, outputs.ReportDir(args.Get("--report", "")));
   outputs.Commit();
   if (!args.Has("--quiet")) std::cout << calib::GroundResultText(result, input);

@@ -1,8 +1,10 @@
+#include <cmath>
 #include <iostream>
 #include <optional>
 
 #include "calib/core/errors.h"
 #include "calib/io/atomic_file.h"
+#include "calib/core/robot_file_edit.h"
 #include "calib/core/robot.h"
 #include "calib/import/importers.h"
 #include "commands.h"
@@ -23,6 +25,10 @@ live recording. INPUT may be gzip-compressed. OUT.log is written atomically.)")
               "robot file (docs/spec/robot.md): wheel names, nominal values,\n"
               "channels; required except for pose-csv. Bundled:\n"
               "config/robots/datasets/*.yaml (docs/datasets.md)")
+      .Option("--write-robot", "FILE",
+              "rosbag2, rosbag: ROBOT.yaml with lidar2d x, y, yaw set from the bag's\n"
+              "tf_static (ros.base_frame -> the scan's frame): the nominal mount\n"
+              "calibration starts from (docs/ros.md)")
       .Flag("--quiet", "no summary on stderr")
       .Footer("FORMAT:\n"
               "  carmen    CARMEN log: FLASER/RAWLASER1 -> SCAN; ODOM (or the odometry in the\n"
@@ -37,8 +43,9 @@ live recording. INPUT may be gzip-compressed. OUT.log is written atomically.)")
               "            integer time = us, decimal = s; '#' comments, optional header\n"
               "  rosbag2   ROS 2 bag: its directory, an .mcap or a .db3 file; rosbag: a ROS 1\n"
               "            .bag. The robot file's ros: block names the topics: joint_states ->\n"
-              "            WHEELS, scan -> SCAN, imu -> IMU, odom -> POSE, cmd_vel -> DRIVE_CMD,\n"
-              "            tf_static noted; header stamps unless ros.stamps: record (docs/ros.md)\n"
+              "            WHEELS, scan -> SCAN, imu -> IMU, odom -> POSE (or, as: wheels, a\n"
+              "            differential drive's WHEELS), cmd_vel -> DRIVE_CMD, tf_static noted;\n"
+              "            header stamps unless ros.stamps: record (docs/ros.md)\n"
               "Records repeating their predecessor's stamp are dropped and counted; a stamp\n"
               "going backwards, a malformed line or a truncated file is an error naming the\n"
               "file and line (exit 2).\n"
@@ -55,11 +62,29 @@ int Import(int argc, char** argv) {
   std::optional<calib::RobotDescription> robot;
   if (args.Has("--robot")) robot = calib::LoadRobotFile(args.Get("--robot", ""));
   // On any error the writer's destructor removes the partial output.
-  calib::CheckOutputs({args.positional[1], args.Get("--robot", "")}, {{"OUT.log", args.positional[2]}});
+  const std::string robot_out = args.Get("--write-robot", "");
+  if (!robot_out.empty() && (!robot || (format != "rosbag2" && format != "rosbag")))
+    throw calib::InputError("command line", "--write-robot", "only for rosbag2 and rosbag, with --robot");
+  calib::CheckOutputs({args.positional[1], args.Get("--robot", "")},
+                      {{"OUT.log", args.positional[2]}, {"--write-robot", robot_out}});
   calib::LogWriter writer(args.positional[2]);
   const calib::ImportSummary summary =
       calib::Import(format, args.positional[1], robot ? &*robot : nullptr, &writer);
-  writer.Close();
+  if (!robot_out.empty()) {
+    if (!summary.scan_mount_tf)
+      throw calib::InputError(args.positional[1], "tf_static",
+                              "no transform from the base frame to the scan's frame for --write-robot");
+    const auto& [x, y, yaw] = *summary.scan_mount_tf;
+    calib::Outputs outputs;
+    outputs.WriteFile(robot_out, calib::WriteCalibratedRobotFile(
+                                     robot->source_file,
+                                     {{"lidar2d.x", x, NAN, 9}, {"lidar2d.y", y, NAN, 9}, {"lidar2d.yaw", yaw, NAN, 9}},
+                                     "import", args.positional[1], "lidar2d x, y, yaw: the bag's tf_static"));
+    writer.Close();
+    outputs.Commit();
+  } else {
+    writer.Close();
+  }
   if (!args.Has("--quiet")) {
     std::cerr << "imported " << summary.lines << " lines of " << args.positional[1] << " -> "
               << args.positional[2] << " (" << (summary.last_utime - summary.first_utime) * 1e-6

@@ -16,10 +16,13 @@
 #include "commands.h"
 #include "common/process_util.h"
 #include "common/provenance.h"
+#include "common/ros_outputs.h"
 
 namespace agvcal_cli {
 
 namespace {
+const agvcal_process::RosOutputs kRosOutputs{true, false, "laser"};
+
 // The command line: arguments, options and the help made from them.
 void Declare(agvcal_process::CommandLine* args) {
   args->Description(R"(Calibrates the drive parameters of ROBOT.yaml and the mount of its 2D lidar
@@ -60,15 +63,9 @@ time offset. Prints a summary; RESULT.json follows docs/spec/cli.md.)")
               "windows of equal path, the longest that give N windows\n"
               "(--heldout-windows, default 20), paired by a sign test;\n"
               "also fits the rest alone and says whether the halves agree")
-      .Option("--heldout-windows", "N", "the number of held-out windows of --fit-fraction (default 20)")
-      .Option("--write-urdf", "FILE", "ROS: the lidar's fixed joint (URDF), sigma and recording in\n"
-              "comments (docs/ros.md)")
-      .Option("--write-tf", "FILE", "ROS 2: a launch file publishing the lidar's static transform")
-      .Option("--write-controller", "FILE",
-              "ROS 2: ros2_control diff_drive_controller / tricycle_controller\nparameters")
-      .Option("--lidar-frame", "NAME", "the lidar's frame in those files (default laser; the base:\n"
-              "the robot file's ros.base_frame, default base_link)")
-      .Flag("--quiet", "no progress on stderr")
+      .Option("--heldout-windows", "N", "the number of held-out windows of --fit-fraction (default 20)");
+  agvcal_process::DeclareRosOutputs(args, kRosOutputs);
+  args->Flag("--quiet", "no progress on stderr")
       .Footer("Exit status: 0 done; 2 unusable input; 3 the recording cannot determine a\n"
               "parameter (stderr names it and the motion to add); 1 internal error.\n");
 }
@@ -77,15 +74,17 @@ time offset. Prints a summary; RESULT.json follows docs/spec/cli.md.)")
 void WriteRosResults(const agvcal_process::CommandLine& args, const calib::RobotDescription& robot,
                      const calib::CalibrationResult& result, const std::string& log_path,
                      calib::Outputs* outputs) {
-  if (!args.Has("--write-urdf") && !args.Has("--write-tf") && !args.Has("--write-controller")) return;
+  if (!agvcal_process::WantsRosMount(args, kRosOutputs) && !args.Has("--write-controller")) return;
   const calib::ResultProvenance source = calib::RecordingProvenance(log_path);
-  const std::string lidar = args.Get("--lidar-frame", "laser");
-  if (args.Has("--write-urdf"))
-    outputs->WriteFile(args.Get("--write-urdf", ""), calib::LidarUrdf(robot, result, source, lidar));
-  if (args.Has("--write-tf"))
-    outputs->WriteFile(args.Get("--write-tf", ""), calib::LidarStaticTfLaunch(robot, result, source, lidar));
+  if (agvcal_process::WantsRosMount(args, kRosOutputs)) {
+    const std::string option = args.Has("--write-urdf") ? "--write-urdf" : "--write-tf";
+    const calib::RosMount mount =
+        calib::Lidar2dRosMount(robot, result, agvcal_process::LidarFrame(args, kRosOutputs), option);
+    agvcal_process::WriteRosMount(args, kRosOutputs, mount, source, outputs);
+  }
   if (args.Has("--write-controller"))
-    outputs->WriteFile(args.Get("--write-controller", ""), calib::DriveControllerYaml(robot, result, source));
+    outputs->WriteFile(args.Get("--write-controller", ""),
+                       calib::DriveControllerYaml(robot, result.drive, result.params, source));
 }
 }  // namespace
 
@@ -121,10 +120,10 @@ int Solve(int argc, char** argv) {
   if (args.Has("--distance")) options.imu.distance_m = positive("--distance");
   if (args.Has("--distance-std")) options.imu.distance_std_m = positive("--distance-std");
   if (args.Has("--turn-angle")) options.imu.turn_angle_rad = positive("--turn-angle") * M_PI / 180.0;
-  calib::CheckOutputs({args.positional[0], log_path}, {{"--out", args.Get("--out", "")},  // before the work: exit 2 at once
-      {"--write-robot", args.Get("--write-robot", "")}, {"--report", args.Get("--report", ""), true},
-      {"--write-urdf", args.Get("--write-urdf", "")}, {"--write-tf", args.Get("--write-tf", "")},
-      {"--write-controller", args.Get("--write-controller", "")}});
+  std::vector<calib::OutputTarget> outputs_asked = {{"--out", args.Get("--out", "")},
+      {"--write-robot", args.Get("--write-robot", "")}, {"--report", args.Get("--report", ""), true}};
+  for (calib::OutputTarget& target : agvcal_process::RosOutputTargets(args, kRosOutputs)) outputs_asked.push_back(target);
+  calib::CheckOutputs({args.positional[0], log_path}, outputs_asked);  // before the work: exit 2 at once
   if (!args.Has("--quiet")) options.progress = [](const std::string& line) { std::cerr << line << "\n"; };
 
   const calib::CalibrationResult result = calib::SolveLog(robot, log_path, options);

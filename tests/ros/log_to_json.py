@@ -9,15 +9,16 @@ Non-finite numbers become the strings "NaN", "Infinity", "-Infinity" (JSON has n
 """
 import json
 import math
-import struct
+import os
 import sys
 
 sys.path.insert(0, sys.argv[1])
+sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
+from lcm_log import events  # noqa: E402
 from agvcal import drive_command_t, imu_t, laser_scan_t, pose2d_t, wheel_state_t  # noqa: E402
 
 TYPES = {"WHEELS": wheel_state_t, "SCAN": laser_scan_t, "POSE": pose2d_t, "IMU": imu_t,
          "DRIVE_CMD": drive_command_t}
-SYNC = 0xEDA1DA01
 
 
 def plain(value):
@@ -26,18 +27,6 @@ def plain(value):
     if isinstance(value, (list, tuple)):
         return [plain(v) for v in value]
     return value
-
-
-def events(path):
-    with open(path, "rb") as f:
-        while True:
-            head = f.read(28)
-            if not head:
-                return
-            sync, _, _, channel_len, data_len = struct.unpack(">IqqII", head)
-            if sync != SYNC:
-                raise SystemExit(f"{path}: not an LCM log")
-            yield f.read(channel_len).decode(), f.read(data_len)
 
 
 def main():

@@ -65,7 +65,26 @@ RosTopics ReadRosTopics(const Reporter& reporter, const Field& field, DriveType 
   }
   ros.scan = TopicOr(reporter, map, "scan", "");
   ros.imu = TopicOr(reporter, map, "imu", "");
-  ros.odom = TopicOr(reporter, map, "odom", "");
+  if (const auto f = map.Find("odom")) {
+    if (f->value.IsMap()) {
+      const CheckedMap odom(reporter, *f, {"topic", "as"}, "expected topic and as (pose or wheels)");
+      ros.odom = TopicOr(reporter, odom, "topic", "/odom");
+      if (const auto as = odom.Find("as")) {
+        const std::string use = ReadString(reporter, *as);
+        if (use != "pose" && use != "wheels")
+          reporter.Fail(*as, "expected pose (an external pose source -> POSE) or wheels (the drive's own "
+                             "odometry -> WHEELS), got '" + use + "'");
+        ros.odom_as_wheels = use == "wheels";
+      }
+    } else {
+      ros.odom = ReadString(reporter, *f);
+    }
+  }
+  if (ros.odom_as_wheels && drive != DriveType::kDifferential)
+    reporter.Fail(*map.Find("odom"), std::string("odom as wheels: only a differential drive's wheels follow from "
+                                                 "its poses, this is a ") + DriveTypeName(drive) + " drive");
+  if (ros.odom_as_wheels && !ros.joint_states.empty())
+    reporter.Fail(*map.Find("odom"), "odom as wheels and joint_states both give WHEELS: keep one");
   ros.cmd_vel = TopicOr(reporter, map, "cmd_vel", "");
   ros.tf_static = TopicOr(reporter, map, "tf_static", ros.tf_static);
   ros.base_frame = TopicOr(reporter, map, "base_frame", ros.base_frame);

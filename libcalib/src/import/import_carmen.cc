@@ -25,12 +25,7 @@ constexpr double kDeg = M_PI / 180.0;
 constexpr double kSickNoReturn = 81.9;  // m: the SICK LMS's 8191 cm code
 constexpr int kMaxBeams = 100000;
 
-struct OdometryRecord {
-  int64_t utime = 0;
-  Pose2 pose;
-  bool has_velocity = false;
-  double tv = 0.0, rv = 0.0;  // m/s, rad/s
-};
+using OdometryRecord = OdometryPose;
 
 // Geometry of the old-format FLASER/RLASER lines, which do not carry it: CARMEN's
 // convention by beam count (a SICK LMS at 1, 0.5 or 0.25 deg).
@@ -162,7 +157,6 @@ bool ReadOdom(const TextReader& reader, const std::vector<std::string>& f, Stamp
 ImportSummary ImportCarmen(const std::string& path, const RobotDescription& robot,
                            MessageSink* sink) {
   RequireDrive(robot, DriveType::kDifferential, "CARMEN");
-  const auto model = MakeDriveModel(robot);
   ImportSummary summary;
   std::vector<agvcal::laser_scan_t> flaser_scans, rawlaser_scans;
   std::vector<OdometryRecord> odom, flaser_odom;
@@ -221,31 +215,7 @@ ImportSummary ImportCarmen(const std::string& path, const RobotDescription& robo
   const std::string scan_channel = ScanChannel(robot);
   for (const auto& scan : scans) events.Add(kScanStream, scan_channel, scan.utime, Encode(scan));
 
-  WheelSample sample;
-  sample.position.assign(2, 0.0);
-  sample.steer.assign(2, 0.0);
-  double max_sideways = 0.0, sum_sideways2 = 0.0;
-  for (std::size_t i = 0; i < poses.size(); ++i) {
-    if (i > 0) {
-      // The arc through both poses; its sideways part vy cannot be driven and is lost.
-      const Twist2 arc = LogTwist(Between(poses[i - 1].pose, poses[i].pose), 1.0);
-      const WheelSetpoint rotation = model->Inverse(arc);
-      for (int w = 0; w < 2; ++w) sample.position[w] += rotation.speed[w];
-      max_sideways = std::max(max_sideways, std::abs(arc.vy));
-      sum_sideways2 += arc.vy * arc.vy;
-    }
-    sample.utime = poses[i].utime;
-    std::vector<double> velocity;
-    if (poses[i].has_velocity) velocity = model->Inverse({poses[i].tv, 0.0, poses[i].rv}).speed;
-    events.Add(kWheelsStream, kWheelsChannel, sample.utime,
-               Encode(WheelStateMessage(sample, robot, velocity)));
-  }
-  if (poses.size() > 1) {
-    std::ostringstream note;
-    note << "odometry steps hold a sideways part no differential drive can make (lost): largest "
-         << max_sideways << " m, rms " << std::sqrt(sum_sideways2 / (poses.size() - 1)) << " m";
-    summary.notes.push_back(note.str());
-  }
+  AddWheelsFromOdometry(poses, robot, &events, &summary);
   for (const auto& [tag, count] : skipped) {
     summary.skipped += count;
     summary.notes.push_back("skipped " + std::to_string(count) + " " + tag +

@@ -1,8 +1,10 @@
 #include "import/import_common.h"
 
 #include <algorithm>
+#include <sstream>
 
 #include "calib/core/errors.h"
+#include "calib/core/kinematics.h"
 #include "calib/core/wheel_track.h"
 #include "calib/io/messages.h"
 
@@ -111,6 +113,35 @@ std::vector<uint8_t> DifferentialTicks::Message(int64_t utime, int64_t left, int
   sample.position = {double(left - left0_) * rad_per_tick_, double(right - right0_) * rad_per_tick_};
   sample.steer = {0.0, 0.0};
   return Encode(WheelStateMessage(sample, robot));
+}
+
+void AddWheelsFromOdometry(const std::vector<OdometryPose>& poses, const RobotDescription& robot,
+                           EventBuffer* events, ImportSummary* summary) {
+  const auto model = MakeDriveModel(robot);
+  WheelSample sample;
+  sample.position.assign(2, 0.0);
+  sample.steer.assign(2, 0.0);
+  double max_sideways = 0.0, sum_sideways2 = 0.0;
+  for (std::size_t i = 0; i < poses.size(); ++i) {
+    if (i > 0) {
+      // The arc through both poses; its sideways part vy cannot be driven and is lost.
+      const Twist2 arc = LogTwist(Between(poses[i - 1].pose, poses[i].pose), 1.0);
+      const WheelSetpoint rotation = model->Inverse(arc);
+      for (int w = 0; w < 2; ++w) sample.position[w] += rotation.speed[w];
+      max_sideways = std::max(max_sideways, std::abs(arc.vy));
+      sum_sideways2 += arc.vy * arc.vy;
+    }
+    sample.utime = poses[i].utime;
+    std::vector<double> velocity;
+    if (poses[i].has_velocity) velocity = model->Inverse({poses[i].tv, 0.0, poses[i].rv}).speed;
+    events->Add(kWheelsStream, kWheelsChannel, sample.utime, Encode(WheelStateMessage(sample, robot, velocity)));
+  }
+  if (poses.size() > 1) {
+    std::ostringstream note;
+    note << "odometry steps hold a sideways part no differential drive can make (lost): largest "
+         << max_sideways << " m, rms " << std::sqrt(sum_sideways2 / (poses.size() - 1)) << " m";
+    summary->notes.push_back(note.str());
+  }
 }
 
 }  // namespace calib::import_internal

@@ -9,6 +9,7 @@
 
 #include "agvcal/laser_scan_t.hpp"
 #include "calib/core/robot.h"
+#include "calib/core/se2.h"
 #include "calib/import/importers.h"
 #include "calib/io/text_reader.h"
 
@@ -74,6 +75,21 @@ agvcal::laser_scan_t MakeScan(int64_t utime, double angle_min, double angle_incr
 // scan_time of every scan: `period` s when the device's is known (> 0), else the median
 // interval between the scans.
 void SetScanTimes(std::vector<agvcal::laser_scan_t>* scans, double period);
+
+// A pose of a differential drive's own odometry, with its body velocity when known.
+struct OdometryPose {
+  int64_t utime = 0;
+  Pose2 pose;
+  bool has_velocity = false;
+  double tv = 0.0, rv = 0.0;  // m/s, rad/s
+};
+
+// The WHEELS messages a differential drive with `robot`'s nominal radii and track turns its
+// wheels through from pose to pose (the arc through each pair; the arc's sideways part, which
+// no differential drive can make, is lost and its size given in a note of `summary`),
+// positions counted from the first pose (rad).
+void AddWheelsFromOdometry(const std::vector<OdometryPose>& poses, const RobotDescription& robot,
+                           EventBuffer* events, ImportSummary* summary);
 
 // Throws InputError naming the robot file unless it describes a `drive` robot.
 void RequireDrive(const RobotDescription& robot, DriveType drive, const std::string& format);

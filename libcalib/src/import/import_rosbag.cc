@@ -88,6 +88,11 @@ class BagConverter {
       if (tf && topic == ros_.tf_static) static_transforms_.push_back(&message);
     }
     for (const BagMessage* message : static_transforms_) Transforms(*message);  // knowing the scan's frame
+    if (ros_.odom_as_wheels) {
+      AddWheelsFromOdometry(odometry_, robot_, &events_, &summary_);
+      summary_.notes.push_back("wheel states from " + ros_.odom + "'s poses, inverted with " + robot_.source_file +
+                               "'s nominal radii and track");
+    }
     summary_.lines = static_cast<int64_t>(bag_.messages.size());
     for (const auto* order : {&wheels_order_, &scan_order_, &imu_order_, &pose_order_, &command_order_})
       summary_.duplicates_dropped += order->duplicates;
@@ -192,6 +197,12 @@ class BagConverter {
 
   void Odometry(const BagMessage& message) {
     const RosOdometry in = DecodeOdometry(message);
+    if (ros_.odom_as_wheels) {
+      const int64_t utime = Stamp(message, in.header);
+      if (pose_order_.Accept(message.file, message.place, utime))
+        odometry_.push_back({utime, {in.pose.position[0], in.pose.position[1], YawOf(in.pose.orientation)}});
+      return;
+    }
     agvcal::pose2d_t pose{};
     pose.utime = Stamp(message, in.header);
     pose.x = in.pose.position[0];
@@ -228,7 +239,9 @@ class BagConverter {
                     t.header.frame_id.c_str(), t.child_frame_id.c_str(), p[0], p[1], p[2],
                     YawOf(t.transform.orientation));
       std::string note = text;
-      if (robot_.lidar2d && !scan_frame_.empty() && bare(t.child_frame_id) == bare(scan_frame_)) {
+      const bool scan_frame = !scan_frame_.empty() && bare(t.child_frame_id) == bare(scan_frame_);
+      if (scan_frame) summary_.scan_mount_tf = std::array<double, 3>{p[0], p[1], YawOf(t.transform.orientation)};
+      if (robot_.lidar2d && scan_frame) {
         std::snprintf(text, sizeof text, " (the scan's frame; robot file lidar2d: x %.4f y %.4f yaw %.5f)",
                       robot_.lidar2d->x, robot_.lidar2d->y, robot_.lidar2d->yaw);
         note += text;
@@ -248,6 +261,7 @@ class BagConverter {
   std::vector<double> first_position_;
   std::string scan_frame_;
   std::vector<const BagMessage*> static_transforms_;
+  std::vector<OdometryPose> odometry_;  // odom as wheels: converted once all are read
   int64_t skipped_joint_states_ = 0, command_seq_ = 0;
 };
 

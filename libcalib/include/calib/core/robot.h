@@ -107,6 +107,7 @@ struct RosTopics {
   std::string scan;                                   // sensor_msgs/LaserScan -> lidar2d channel
   std::string imu;                                    // sensor_msgs/Imu -> imu channel
   std::string odom;                                   // nav_msgs/Odometry -> pose channel
+  bool odom_as_wheels = false;                        // odom -> WHEELS instead (the drive's own odometry)
   std::string cmd_vel;                                // geometry_msgs/Twist(Stamped) -> DRIVE_CMD
   std::string tf_static = "/tf_static";               // tf2_msgs/TFMessage: nominal mounts, noted
   std::string base_frame = "base_link";               // the robot frame's name in tf

@@ -22,7 +22,9 @@
 //   the input is held in memory (the datasets are a few MB).
 
 #include <cstdint>
+#include <array>
 #include <map>
+#include <optional>
 #include <string>
 #include <vector>
 
@@ -38,6 +40,9 @@ struct ImportSummary {
   int64_t duplicates_dropped = 0;           // records dropped for repeating their stamp
   int64_t skipped = 0;                      // lines left out on purpose (comments, other records)
   std::vector<std::string> notes;           // what the user should know, one sentence each
+  // ROS bags: tf_static's transform from the base frame to the scan's frame (x, y m, yaw rad;
+  // z, roll, pitch left out: the 2D lidar's nominal mount), when the bag has it.
+  std::optional<std::array<double, 3>> scan_mount_tf;
 };
 
 // CARMEN log (.clf / .log). Front laser lines (FLASER, or RAWLASER1 when present) -> SCAN
