@@ -114,6 +114,21 @@ TEST(Discover, TyreGrowthIsModelledAsARadiusTerm) {
   EXPECT_TRUE(std::abs(c.value - k) <= std::max(0.2 * std::abs(k), 2.0 * c.std)) << DiscoveredText(r);
 }
 
+// The body turns further one way than the other for the same wheel motion (a caster's drag, a
+// slope): a yaw-rate term by |turn_rate|, the same sign turning left and right.
+TEST(Discover, AsymmetricTurningIsModelledAsAYawRateTermByTheTurnRateMagnitude) {
+  const double k = 0.01;
+  const DiagnoseReport r = DiagnoseSim(Sim("diff_robot", 8, {{TermChannel::kYawRate, "|turn_rate|", k}}));
+  ASSERT_FALSE(r.discovered.empty()) << "verdict " << r.verdict << ", misfit " << r.misfit.variance_factor;
+  EXPECT_EQ(r.discovered.size(), 1u) << DiscoveredText(r);
+  const Discovered& d = r.discovered[0];
+  EXPECT_EQ(d.channel, "yaw_rate") << DiscoveredText(r);
+  EXPECT_EQ(d.terms[0].regressor, "|turn_rate|") << DiscoveredText(r);
+  const ParamEstimate& c = d.terms[0].coefficient;
+  EXPECT_TRUE(std::abs(c.value - k) <= std::max(0.2 * std::abs(k), 2.0 * c.std)) << DiscoveredText(r);
+  EXPECT_NE(DiagnoseSummaryText(r).find("ω_true = ω_kin + 0.01"), std::string::npos) << DiagnoseSummaryText(r);
+}
+
 // Physics the library has no term for (a yaw rate that grows with time since the start): the
 // verdict says the model does not fit, never that it explains the recording within its noise.
 TEST(Discover, PhysicsOutsideTheLibraryIsUnmodelledStructure) {

@@ -280,6 +280,7 @@ std::string Equation(TermChannel channel, const std::string& regressor, double c
   static const Form forms[] = {
       {TermChannel::kYawRate, "turn_rate*|turn_rate|", "ω_true = ω_kin·(1", "|ω_kin|", ")"},
       {TermChannel::kYawRate, "turn_rate*|speed|", "ω_true = ω_kin·(1", "|v|", ")"},
+      {TermChannel::kYawRate, "|turn_rate|", "ω_true = ω_kin", "|ω_kin|", ""},
       {TermChannel::kRadius, "|speed|", "r_eff = r·(1", "|v|", ")"},
       {TermChannel::kRadius, "turn_rate^2", "r_eff = r·(1", "ω²", ")"},
       {TermChannel::kSteer, "steer*|steer|", "ψ_true = ψ·(1", "|ψ|", ")"},
