@@ -134,16 +134,21 @@ def found_term(rep, channel, regressor):
 
 def detectable(rep, control, channel, regressor, size):
     """The size a term needs to be found with power 0.8, from a pilot recording planted at `size`:
-    Z_DETECT over the found term's Wald z; for physics outside the library, over the z of its
-    found look-alike or, with none found, over the square root of the chi-square it adds beyond
-    the control's (variance factor × fit rows)."""
+    Z_DETECT over the found term's Wald z (or the z the report's note gives it when it was not
+    confirmed); for physics outside the library, over the z of its found look-alike or, with none
+    found, over the square root of the chi-square it adds beyond the control's (variance factor ×
+    fit rows, at least 1)."""
     d = found_term(rep, channel, regressor) or (rep.get("discovered") or [None])[0]
+    left = f"strongest library term left, {channel} by {regressor} (Wald z "
+    note = next((n for n in rep.get("notes", []) if left in n), None)
     if d:
         c = d["terms"][0]["coefficient"]
         z = abs(c["value"] / c["std"])
+    elif note:  # not confirmed (a catalogued look-alike took it): its Wald z from the note
+        z = abs(float(note.split(left)[1].split(",")[0]))
     else:
         excess = (rep["misfit"]["variance_factor"] - control["misfit"]["variance_factor"]) * 3 * rep["fit_rows"]
-        z = math.sqrt(max(excess, 1e-12))
+        z = math.sqrt(max(excess, 1.0))
     return abs(size) * Z_DETECT / z
 
 

@@ -141,6 +141,20 @@ TEST(Discover, PhysicsOutsideTheLibraryIsUnmodelledStructure) {
   EXPECT_NE(summary.find("UNMODELLED STRUCTURE"), std::string::npos) << summary;
 }
 
+// A smaller yaw rate growing with time on the forklift: no term fits it and the residuals are
+// several times a control's (variance factor between the bound and ten times a control's): the
+// verdict still says the model does not fit.
+TEST(Discover, PhysicsOutsideTheLibraryAtSeveralTimesAControlsMisfitIsUnmodelledStructure) {
+  SimConfig config = LoadSimConfig(Source("config/sims/forklift.yaml"));
+  config.seed = 7;
+  config.terms = {{TermChannel::kYawRate, "time", 7e-6}};
+  const DiagnoseReport r = DiagnoseSim(config);
+  EXPECT_TRUE(r.discovered.empty()) << DiscoveredText(r);
+  EXPECT_GT(r.misfit.variance_factor, 4.0);
+  EXPECT_EQ(r.verdict, "unmodelled_structure") << "variance factor " << r.misfit.variance_factor << ", drift ratio "
+                                               << r.misfit.heading_drift_ratio << "; " << DiscoveredText(r);
+}
+
 // Controls: the same robots without a term.
 TEST(Discover, ControlsHaveNoTermAndFitWithinTheirNoise) {
   for (uint64_t seed : {5, 6, 7}) {
