@@ -85,6 +85,11 @@ FAMILIES = {
 Z_DETECT = 4.07
 
 
+def cell(text):
+    """Text for a Markdown table cell (the regressors' names hold '|')."""
+    return str(text).replace("|", "\\|")
+
+
 def terms_yaml(channel, regressor, coef):
     return f'terms:\n  - {{channel: {channel}, regressor: "{regressor}", coefficient: {coef:.6g}}}\n'
 
@@ -218,7 +223,7 @@ def sim_loop(a, rows, pool):
         ok = bool(c2) and abs(c2[0] - c1[2]) <= max(2 * math.hypot(c1[3], c2[1]), 0.05 * abs(c1[2]))
         n_ok += ok
         again = f"{c2[0]:.4g} ± {c2[1]:.2g}" if c2 else "not found (" + rep["verdict"] + ")"
-        lines.append(f"| {r['drive']} | {r['seed']} | {fam[0]}: {fam[1]} | {c1[2]:.4g} ± {c1[3]:.2g} | {again} | "
+        lines.append(f"| {r['drive']} | {r['seed']} | {cell(fam[0] + ': ' + fam[1])} | {c1[2]:.4g} ± {c1[3]:.2g} | {again} | "
                      f"{'yes' if ok else 'no'} |")
     lines.insert(1, f"Sim-to-real loop: the same term within 2 sigma or 5 % on {n_ok}/{len(picked)} re-simulated recordings.")
     return "\n".join(lines) + "\n"
@@ -287,11 +292,11 @@ def random_report(a, rows, det):
                 f"{s['ticks']} ticks, noise {100 * s['range_noise']:.1f} cm, step {1000 * s['step']:.1f} ms, "
                 f"cmd {s['cmd_rate']} Hz {s['between']}")
         if r["error"]:
-            lines.append(f"| {r['drive']} | {r['seed']} | {planted} | - | error: {r['error']} | | | | | {sens} |")
+            lines.append(f"| {r['drive']} | {r['seed']} | {cell(planted)} | - | error: {r['error']} | | | | | {sens} |")
             continue
         m = f"{r['own_mult']:.1f} ({r['mult']:.1f})" if r.get("own_mult") else (f"({r['mult']:.1f})" if fam else "-")
         disc = "; ".join(f"{c}: {g} = {v:.3g} ± {sd:.2g}" for c, g, v, sd in r["discovered"]) or "-"
-        lines.append(f"| {r['drive']} | {r['seed']} | {planted} | {m} | {r['verdict']} | {disc} | "
+        lines.append(f"| {r['drive']} | {r['seed']} | {cell(planted)} | {m} | {r['verdict']} | {cell(disc)} | "
                      f"{', '.join(r['effects']) or '-'} | {r['vf']:.3g} | {r['ratio']:.3g} | {sens} |")
     return "\n".join(lines) + "\n"
 
