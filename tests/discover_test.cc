@@ -114,6 +114,21 @@ TEST(Discover, TyreGrowthIsModelledAsARadiusTerm) {
   EXPECT_TRUE(std::abs(c.value - k) <= std::max(0.2 * std::abs(k), 2.0 * c.std)) << DiscoveredText(r);
 }
 
+// The body turns further one way than the other for the same wheel motion (a caster's drag, a
+// slope): a yaw-rate term by |turn_rate|, the same sign turning left and right.
+TEST(Discover, AsymmetricTurningIsModelledAsAYawRateTermByTheTurnRateMagnitude) {
+  const double k = 0.01;
+  const DiagnoseReport r = DiagnoseSim(Sim("diff_robot", 8, {{TermChannel::kYawRate, "|turn_rate|", k}}));
+  ASSERT_FALSE(r.discovered.empty()) << "verdict " << r.verdict << ", misfit " << r.misfit.variance_factor;
+  EXPECT_EQ(r.discovered.size(), 1u) << DiscoveredText(r);
+  const Discovered& d = r.discovered[0];
+  EXPECT_EQ(d.channel, "yaw_rate") << DiscoveredText(r);
+  EXPECT_EQ(d.terms[0].regressor, "|turn_rate|") << DiscoveredText(r);
+  const ParamEstimate& c = d.terms[0].coefficient;
+  EXPECT_TRUE(std::abs(c.value - k) <= std::max(0.2 * std::abs(k), 2.0 * c.std)) << DiscoveredText(r);
+  EXPECT_NE(DiagnoseSummaryText(r).find("ω_true = ω_kin + 0.01"), std::string::npos) << DiagnoseSummaryText(r);
+}
+
 // Physics the library has no term for (a yaw rate that grows with time since the start): the
 // verdict says the model does not fit, never that it explains the recording within its noise.
 TEST(Discover, PhysicsOutsideTheLibraryIsUnmodelledStructure) {
@@ -124,6 +139,20 @@ TEST(Discover, PhysicsOutsideTheLibraryIsUnmodelledStructure) {
   const std::string summary = DiagnoseSummaryText(r);
   EXPECT_EQ(summary.find("within its noise"), std::string::npos) << summary;
   EXPECT_NE(summary.find("UNMODELLED STRUCTURE"), std::string::npos) << summary;
+}
+
+// A smaller yaw rate growing with time on the forklift: no term fits it and the residuals are
+// several times a control's (variance factor between the bound and ten times a control's): the
+// verdict still says the model does not fit.
+TEST(Discover, PhysicsOutsideTheLibraryAtSeveralTimesAControlsMisfitIsUnmodelledStructure) {
+  SimConfig config = LoadSimConfig(Source("config/sims/forklift.yaml"));
+  config.seed = 7;
+  config.terms = {{TermChannel::kYawRate, "time", 7e-6}};
+  const DiagnoseReport r = DiagnoseSim(config);
+  EXPECT_TRUE(r.discovered.empty()) << DiscoveredText(r);
+  EXPECT_GT(r.misfit.variance_factor, 4.0);
+  EXPECT_EQ(r.verdict, "unmodelled_structure") << "variance factor " << r.misfit.variance_factor << ", drift ratio "
+                                               << r.misfit.heading_drift_ratio << "; " << DiscoveredText(r);
 }
 
 // Controls: the same robots without a term.

@@ -40,6 +40,7 @@ const std::vector<TermRegressor>& TermRegressors() {
       {"speed", "m/s", [](const TermMotion& m) { return m.speed; }},
       {"|speed|", "m/s", [](const TermMotion& m) { return std::abs(m.speed); }},
       {"turn_rate", "rad/s", [](const TermMotion& m) { return m.turn_rate; }},
+      {"|turn_rate|", "rad/s", [](const TermMotion& m) { return std::abs(m.turn_rate); }},
       {"turn_rate*|turn_rate|", "rad^2/s^2", [](const TermMotion& m) { return m.turn_rate * std::abs(m.turn_rate); }},
       {"turn_rate^3", "rad^3/s^3", [](const TermMotion& m) { return m.turn_rate * m.turn_rate * m.turn_rate; }},
       {"turn_rate*|speed|", "rad m/s^2", [](const TermMotion& m) { return m.turn_rate * std::abs(m.speed); }},
@@ -70,6 +71,9 @@ std::vector<LibraryTerm> LibraryTerms(DriveType drive) {
        "scrub: the body turns less than the wheels say, the more so the faster it turns", false},
       {TermChannel::kYawRate, "turn_rate*|speed|",
        "understeer: the faster the robot drives, the less it turns for the same wheel motion", false},
+      {TermChannel::kYawRate, "|turn_rate|",
+       "asymmetric turning: the body turns further left than right for the same wheel motion (a caster's drag, "
+       "a wheel that rolls differently backward, a slope)", false},
       {TermChannel::kRadius, "|speed|", "tyre growth: the rolling radius grows with speed", false},
       {TermChannel::kRadius, "turn_rate^2", "load transfer: the rolling radius changes in turns", false},
       {TermChannel::kSteer, "steer*|steer|", "steering non-linearity: the linkage turns the wheel further at large angles", true},

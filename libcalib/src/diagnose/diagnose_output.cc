@@ -278,7 +278,7 @@ std::string DiagnoseVerdict(const DiagnoseReport& r) {
     if (r.effects.size() > 1)
       verdict += " " + std::to_string(r.effects.size() - 1) + " more effect" + (r.effects.size() > 2 ? "s" : "") +
                  " below.";
-  } else if (!r.discovered.empty()) {
+  } else if (!r.discovered.empty() && r.verdict != "unmodelled_structure") {
     verdict = "The robot carries physics outside the catalogue (DISCOVERED PHYSICS below: " + r.discovered.front().equation +
               "): find its cause, or let the simulator reproduce it (diagnose --write-sim).";
   } else if (r.misfit.beyond) {
@@ -375,11 +375,12 @@ std::string DiagnoseSummaryText(const DiagnoseReport& r, bool verbose) {
     s << "Set aside: " << 100.0 * r.outlier_share << " % of all intervals; strongest correlation with |"
       << strongest->first << "| (" << strongest->second << ").\n";
   }
-  if (r.effects.empty() && r.discovered.empty() && r.misfit.beyond) {
+  if (r.effects.empty() && r.verdict == "unmodelled_structure") {
     s << "UNMODELLED STRUCTURE: the final model's residuals are far beyond a well-fitting recording's (variance factor "
       << r.misfit.variance_factor << ", near 1 for a model that fits; held-out heading error over drift windows "
       << r.misfit.heading_drift_ratio << " times what independent noise of that size gives), and no catalogued effect "
-      << "or library term explains them: physics is missing that the diagnosis cannot name.\n";
+      << "or library term explains them" << (r.discovered.empty() ? "" : " (the terms below only in part)")
+      << ": physics is missing that the diagnosis cannot name.\n";
   } else if (r.effects.empty() && r.discovered.empty()) {
     s << "No significant unmodelled physics: the calibrated model explains the recording within its noise.\n";
   }
