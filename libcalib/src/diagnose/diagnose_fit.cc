@@ -323,6 +323,31 @@ Fit FitWithout(const Recording& recording, const Fit& with, const std::vector<in
   return FitModel(recording, start, *others, {});
 }
 
+Fit FitAcrossOffsetMinima(const Recording& recording, const Model& start, const std::vector<int>& free,
+                          const std::vector<int>& tested) {
+  Fit best = FitModel(recording, start, free, tested);
+  if (std::find(free.begin(), free.end(), int(kTimeOffset)) == free.end()) return best;
+  const Track& tr = recording.track;
+  if (tr.size() < 2) return best;
+  const double period = (tr.utimes().back() - tr.utimes().front()) * 1e-6 / double(tr.size() - 1);
+  // Global before local: the offset on a grid of quarter periods over the range searched, the
+  // other terms at their start, and the neighbouring minima either side of the start.
+  std::vector<double> grid;
+  const double step = std::max(period / 4, 1e-3);
+  for (double t = -recording.max_offset_s; t <= recording.max_offset_s; t += step) grid.push_back(t);
+  std::vector<double> starts = {BestOnGrid(recording, start, kTimeOffset, grid)};
+  for (int shift : {-1, 1}) starts.push_back(start.beta[kTimeOffset] + shift * period);
+  for (double offset : starts) {
+    if (!(std::abs(offset) <= recording.max_offset_s) || std::abs(offset - start.beta[kTimeOffset]) < step / 2)
+      continue;
+    Model from = start;
+    from.beta[kTimeOffset] = offset;
+    Fit f = FitModel(recording, from, free, tested);
+    if (f.chi2_fit < best.chi2_fit) best = std::move(f);
+  }
+  return best;
+}
+
 double BestOnGrid(const Recording& recording, const Model& m, int beta, const std::vector<double>& grid) {
   double best = grid.front(), best_chi2 = 1e300;
   for (double v : grid) {
