@@ -343,7 +343,10 @@ Fit FitAcrossOffsetMinima(const Recording& recording, const Model& start, const 
     Model from = start;
     from.beta[kTimeOffset] = offset;
     Fit f = FitModel(recording, from, free, tested);
-    if (f.chi2_fit < best.chi2_fit) best = std::move(f);
+    // Another basin only when it fits better by more than the solve's own convergence: the same
+    // minimum reached from elsewhere must not change the digits.
+    constexpr double kBetterBasin = 0.01;  // chi-square, in the baseline's noise scale
+    if (f.chi2_fit < best.chi2_fit - kBetterBasin) best = std::move(f);
   }
   return best;
 }
