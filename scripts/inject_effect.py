@@ -11,8 +11,8 @@ real-data injection suite (scripts/mismatch_real_injection.py, docs/mismatch-rea
 The recorded wheel stream is taken as the truth the effect acts on; the new readings are those
 an encoder shows when the effect is present:
 - slip: each wheel's positions p' solve p'_j - S*R*v'_j^2/2 = p_j at every sample, v' the
-  diagnosis's speeds (central differences over about +-50 ms, diagnose_fit.cc MakeTrack) of p'
-  itself, R the wheel's radius (the model's: give the calibrated one); the model's distance lost
+  diagnosis's speeds (central differences over about +-50 ms, wider for readings that stray from
+  a smooth motion: diagnose_fit.cc SpeedHalfWidth) of p' itself, R the wheel's radius (the model's: give the calibrated one); the model's distance lost
   over any two samples is then the injected one to rounding. Solved by Newton: the equations of
   samples j, j+-k form one tridiagonal chain per residue of j mod k.
 - eccentricity: ROLE's angle phi' solves phi' + A*(sin(phi' - P) + sin P) = phi (A < 1).
@@ -31,7 +31,8 @@ from shift_scan_stamps import channel_events  # noqa: E402
 from wheel_log import wheel_fields  # noqa: E402
 
 STEER_HYSTERESIS = 0.002  # rad, diagnose_fit.cc MakeTrack
-SPEED_SPAN_S = 0.05       # half-width of the diagnosis's central differences
+SPEED_SPAN_S = 0.05       # least half-width of the diagnosis's central differences
+SPEED_ERROR = 0.1         # diagnose_fit.cc SpeedHalfWidth kSpeedError
 
 
 class NotRealisable(Exception):
@@ -70,17 +71,45 @@ def put(data, at, value):
     struct.pack_into(">d", data, at, value)
 
 
-def smoothing_k(utimes):
-    """The diagnosis's central-difference half-width in samples (diagnose_fit.cc MakeTrack)."""
+def step_irregularity(p, utimes):
+    """How far the readings p stray from a smooth motion, as a share of a typical step
+    (diagnose_fit.cc StepIrregularity: residuals from the cubic through two samples either side,
+    the negative part of their lag-one covariance)."""
+    n = len(p)
+    if n < 8:
+        return 0.0
+    residual = []
+    for i in range(2, n - 2):
+        at = (i - 2, i - 1, i + 1, i + 2)
+        smooth = 0.0
+        for j in range(4):
+            weight = 1.0
+            for m in range(4):
+                if m != j:
+                    weight *= float(utimes[i] - utimes[at[m]]) / float(utimes[at[j]] - utimes[at[m]])
+            smooth += weight * p[at[j]]
+        residual.append(p[i] - smooth)
+    covariance = sum(residual[i] * residual[i + 1] for i in range(len(residual) - 1)) / (len(residual) - 1)
+    displacement = math.sqrt(max(0.0, -covariance) * 36.0 / 56.0)
+    steps = [p[i + 1] - p[i] for i in range(n - 1) if p[i + 1] != p[i]]
+    return displacement / math.sqrt(sum(x * x for x in steps) / len(steps)) if steps else 0.0
+
+
+def smoothing_k(utimes, wheels):
+    """The diagnosis's central-difference half-width in samples (diagnose_fit.cc SpeedHalfWidth)
+    for the wheel positions `wheels` (one list per wheel of the drive)."""
     n = len(utimes)
     dt = (utimes[-1] - utimes[0]) * 1e-6 / (n - 1)
-    return max(1, int(math.floor(SPEED_SPAN_S / max(dt, 1e-4) + 0.5)))
+    k = max(1, int(math.floor(SPEED_SPAN_S / max(dt, 1e-4) + 0.5)))
+    irregularity = max([step_irregularity(p, utimes) for p in wheels] + [0.0])
+    needed = math.ceil(irregularity * math.sqrt(0.5) / SPEED_ERROR)
+    return min(max(k, needed), max(1, n // 8))
 
 
-def solve_slip(g, utimes, slip, radius):
-    """p with p_j - slip*radius*v_j^2/2 = g_j, v the central differences of p (module doc)."""
+def solve_slip(g, utimes, slip, radius, k):
+    """p with p_j - slip*radius*v_j^2/2 = g_j, v the central differences of p over +-k samples
+    (module doc)."""
     n = len(g)
-    k = smoothing_k(utimes)
     lo = [max(0, j - k) for j in range(n)]
     hi = [min(n - 1, j + k) for j in range(n)]
     span = [(utimes[hi[j]] - utimes[lo[j]]) * 1e-6 for j in range(n)]
@@ -172,9 +201,20 @@ def inject(data, src, robot, effect, args):
     utimes = [struct.unpack_from(">q", data, m[2])[0] for m in msgs]
     if effect == "slip":
         radii = [float(r) for r in args[1].split(",")]
-        for name, radius in zip(roles.values(), radii):
-            g = [get(data, m[3][name]) for m in msgs]
-            for m, value in zip(msgs, solve_slip(g, utimes, float(args[0]), radius)):
+        recorded = [[get(data, m[3][name]) for m in msgs] for name in roles.values()]
+        # The half-width comes from the readings the diagnosis sees, the injected ones: solved
+        # again until the half-width of the solution is the one it was solved with.
+        k = smoothing_k(utimes, recorded)
+        for _ in range(4):
+            solved = [solve_slip(g, utimes, float(args[0]), radius, k) for g, radius in zip(recorded, radii)]
+            k_solved = smoothing_k(utimes, solved)
+            if k_solved == k:
+                break
+            k = k_solved
+        else:
+            raise NotRealisable("the speeds' half-width does not settle on this recording")
+        for name, p in zip(roles.values(), solved):
+            for m, value in zip(msgs, p):
                 put(data, m[3][name], value)
     elif effect == "eccentricity":
         name = roles[args[0]]

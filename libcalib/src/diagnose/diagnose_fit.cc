@@ -16,6 +16,59 @@
 
 namespace calib::diag {
 
+namespace {
+
+// How far wheel w's readings stray from any smooth motion, as a share of a typical step between
+// samples. Each reading is compared with the cubic through the two samples either side; a reading
+// displaced from the smooth path (a tick counted one sample late, uneven read-out) leaves
+// residuals of opposite sign at consecutive samples, real acceleration leaves residuals of the
+// same sign, so the negative part of their lag-one covariance is the irregularity alone.
+double StepIrregularity(const EncoderTrack& tr, int w) {
+  const std::size_t n = tr.size();
+  if (n < 8) return 0.0;
+  std::vector<double> residual;
+  for (std::size_t i = 2; i + 2 < n; ++i) {
+    const std::size_t at[4] = {i - 2, i - 1, i + 1, i + 2};
+    double smooth = 0;
+    for (int j = 0; j < 4; ++j) {
+      double weight = 1;  // Lagrange weight of sample at[j] at the time of sample i
+      for (int m = 0; m < 4; ++m)
+        if (m != j) weight *= double(tr.utime(i) - tr.utime(at[m])) / double(tr.utime(at[j]) - tr.utime(at[m]));
+      smooth += weight * tr.pos(at[j], w);
+    }
+    residual.push_back(tr.pos(i, w) - smooth);
+  }
+  double covariance = 0;
+  for (std::size_t i = 0; i + 1 < residual.size(); ++i) covariance += residual[i] * residual[i + 1];
+  covariance /= double(residual.size() - 1);
+  // Independent displacements of variance s2 give a lag-one covariance of -(56/36) s2 (equal spacing).
+  const double displacement = std::sqrt(std::max(0.0, -covariance) * 36.0 / 56.0);
+  double step2 = 0;
+  int moving = 0;
+  for (std::size_t i = 0; i + 1 < n; ++i) {
+    const double step = tr.pos(i + 1, w) - tr.pos(i, w);
+    if (step != 0) step2 += step * step, ++moving;
+  }
+  return moving > 0 ? displacement / std::sqrt(step2 / moving) : 0.0;
+}
+
+// Half-width, in samples, of the central differences that give the wheel speeds: about +-50 ms
+// (below that, tick quantisation dominates), wider where the readings stray from a smooth motion
+// by a large share of a step, until the speed error that leaves is at most kSpeedError of the
+// speed: over +-k samples, irregularity x step x sqrt(2) / (2 k steps).
+int SpeedHalfWidth(const EncoderTrack& tr) {
+  constexpr double kSpeedError = 0.1;
+  const std::size_t n = tr.size();
+  const double dt = (tr.utime(n - 1) - tr.utime(0)) * 1e-6 / double(n - 1);
+  int k = std::max(1, int(std::lround(0.05 / std::max(dt, 1e-4))));
+  double irregularity = 0;
+  for (int w = 0; w < tr.wheels; ++w) irregularity = std::max(irregularity, StepIrregularity(tr, w));
+  const int needed = int(std::ceil(irregularity * std::sqrt(0.5) / kSpeedError));
+  return std::min(std::max(k, needed), std::max(1, int(n / 8)));
+}
+
+}  // namespace
+
 Track MakeTrack(const RobotDescription& robot, const WheelTrack& wheels) {
   Track tr(EncoderTrack(robot.drive, wheels));
   const auto& roles = WheelRoles(robot.drive);
@@ -30,9 +83,7 @@ Track MakeTrack(const RobotDescription& robot, const WheelTrack& wheels) {
   tr.steer_sign.assign(n, {0, 0});
   tr.travel_sign.assign(n, 1.0);
   if (n < 3) return tr;
-  // Speeds by central differences over about +-50 ms: below that, tick quantisation dominates.
-  const double dt = (tr.utimes().back() - tr.utimes().front()) * 1e-6 / double(n - 1);
-  const int k = std::max(1, int(std::lround(0.05 / std::max(dt, 1e-4))));
+  const int k = SpeedHalfWidth(tr);
   for (std::size_t i = 0; i < n; ++i) {
     const std::size_t lo = i >= std::size_t(k) ? i - k : 0, hi = std::min(n - 1, i + k);
     const double span = (tr.utime(hi) - tr.utime(lo)) * 1e-6;
@@ -270,6 +321,34 @@ Fit FitWithout(const Recording& recording, const Fit& with, const std::vector<in
   Model start = with.m;
   for (int b : effect) start.beta[b] = 0.0;
   return FitModel(recording, start, *others, {});
+}
+
+Fit FitAcrossOffsetMinima(const Recording& recording, const Model& start, const std::vector<int>& free,
+                          const std::vector<int>& tested) {
+  Fit best = FitModel(recording, start, free, tested);
+  if (std::find(free.begin(), free.end(), int(kTimeOffset)) == free.end()) return best;
+  const Track& tr = recording.track;
+  if (tr.size() < 2) return best;
+  const double period = (tr.utimes().back() - tr.utimes().front()) * 1e-6 / double(tr.size() - 1);
+  // Global before local: the offset on a grid of quarter periods over the range searched, the
+  // other terms at their start, and the neighbouring minima either side of the start.
+  std::vector<double> grid;
+  const double step = std::max(period / 4, 1e-3);
+  for (double t = -recording.max_offset_s; t <= recording.max_offset_s; t += step) grid.push_back(t);
+  std::vector<double> starts = {BestOnGrid(recording, start, kTimeOffset, grid)};
+  for (int shift : {-1, 1}) starts.push_back(start.beta[kTimeOffset] + shift * period);
+  for (double offset : starts) {
+    if (!(std::abs(offset) <= recording.max_offset_s) || std::abs(offset - start.beta[kTimeOffset]) < step / 2)
+      continue;
+    Model from = start;
+    from.beta[kTimeOffset] = offset;
+    Fit f = FitModel(recording, from, free, tested);
+    // Another basin only when it fits better by more than the solve's own convergence: the same
+    // minimum reached from elsewhere must not change the digits.
+    constexpr double kBetterBasin = 0.01;  // chi-square, in the baseline's noise scale
+    if (f.chi2_fit < best.chi2_fit - kBetterBasin) best = std::move(f);
+  }
+  return best;
 }
 
 double BestOnGrid(const Recording& recording, const Model& m, int beta, const std::vector<double>& grid) {

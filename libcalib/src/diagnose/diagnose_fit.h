@@ -90,6 +90,14 @@ Fit FitModel(const Recording& recording, const Model& start, const std::vector<i
 Fit FitWithout(const Recording& recording, const Fit& with, const std::vector<int>& effect,
                std::vector<int>* others);
 
+// FitModel from `start` and, when the time offset is free, also from the offset with the lowest
+// chi-square on a grid of quarter wheel sample periods over the range searched (the other terms at
+// their start) and from one sample period either side of the start: the lowest chi-square. The
+// offset's cost has local minima a sample period apart (encoder ticks); fitted with a look-alike
+// that took up part of its share, it reaches the joint minimum only from that minimum's basin.
+Fit FitAcrossOffsetMinima(const Recording& recording, const Model& start, const std::vector<int>& free,
+                          const std::vector<int>& tested);
+
 // The value of effect term `beta` on `grid` with the lowest chi-square on the fit blocks.
 double BestOnGrid(const Recording& recording, const Model& m, int beta, const std::vector<double>& grid);
 

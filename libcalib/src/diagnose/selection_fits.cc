@@ -56,6 +56,8 @@ class RecordingFits : public SelectionFits {
   std::vector<Fit> trials_;  // per candidate: its last TryAdd
   Fit with_, without_;       // the last TryKeep, or TrySwap (the model with the look-alike, without both)
   std::vector<int> others_;  // free in `without_`
+  Fit lookalike_;            // the last FitLookAlike's joint fit, of look-alike `lookalike_of_`
+  int lookalike_of_ = -1;
 };
 
 // The calibration on the fit blocks without effects, twice (the second from the first's values),
@@ -159,7 +161,7 @@ std::vector<PairFit> RecordingFits::FitPairs(const std::vector<ConfusablePair>& 
     Model startm = f0_.m;
     startm.beta[ba] = single_[pairs_[k].a].m.beta[ba];
     startm.beta[bb] = single_[pairs_[k].b].m.beta[bb];
-    joints_[k] = FitModel(recording_, startm, {ba, bb}, {ba, bb});
+    joints_[k] = FitAcrossOffsetMinima(recording_, startm, {ba, bb}, {ba, bb});
   });
   for (std::size_t k = 0; k < pairs_.size(); ++k) {
     const Fit& joint = joints_[k];
@@ -184,7 +186,17 @@ StepTest RecordingFits::TryAdd(int j) {
   free.insert(free.end(), c.beta.begin(), c.beta.end());
   Model startm = current_.m;
   for (int b : c.beta) startm.beta[b] = single_[j].m.beta[b];
-  trials_[j] = FitModel(recording_, startm, free, c.beta);
+  // A time offset's look-alike added beside it: the offset fitted alone took up the look-alike's
+  // share, and the joint minimum may lie in another of the offset's basins.
+  const bool beside_its_look_alike = std::any_of(pairs_.begin(), pairs_.end(), [&](const PairFit& pf) {
+    const int other = pf.a == j ? pf.b : pf.b == j ? pf.a : -1;
+    return other >= 0 && cands_[other].beta[0] == kTimeOffset &&
+           std::find(current_.free.begin(), current_.free.end(), int(kTimeOffset)) != current_.free.end();
+  });
+  trials_[j] = beside_its_look_alike ? FitAcrossOffsetMinima(recording_, startm, free, c.beta)
+                                     : FitModel(recording_, startm, free, c.beta);
+  // The look-alike's joint fit with the current model is this model too, fitted from more starts.
+  if (lookalike_of_ == j && lookalike_.free == free && lookalike_.chi2_fit < trials_[j].chi2_fit) trials_[j] = lookalike_;
   const Fit& f = trials_[j];
   return {f.p, f.wald, DeltaBicAt(current_, f0_, f.chi2_fit, current_.chi2_fit, c.beta.size(), log_n_)};
 }
@@ -225,12 +237,13 @@ LookAlikeFit RecordingFits::FitLookAlike(int x, int y) {
   free.insert(free.end(), cy.beta.begin(), cy.beta.end());
   Model startm = current_.m;
   for (int b : cy.beta) startm.beta[b] = single_[y].m.beta[b];
-  Fit joint = FitModel(recording_, startm, free, cy.beta);
+  Fit joint = FitAcrossOffsetMinima(recording_, startm, free, cy.beta);
   // From the current model the chosen one has taken up the look-alike's share (a time offset's
   // cost has minima a sample period apart): from its own single fit too, and the better fit.
   for (int b : cx.beta) startm.beta[b] = single_[x].m.beta[b];
   Fit from_single = FitModel(recording_, startm, free, cy.beta);
   if (from_single.chi2_fit < joint.chi2_fit) joint = std::move(from_single);
+  lookalike_ = joint, lookalike_of_ = y;
   const std::vector<int> ax = PlacesOf(cx, free), ay = PlacesOf(cy, free);
   LookAlikeFit out;
   out.correlation = Correlation(joint.cov, ax[0], ay[0]);
