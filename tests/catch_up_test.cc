@@ -56,6 +56,30 @@ TEST(CatchUpTest, StampFilterPassesEachStampOncePerChannel) {
   EXPECT_EQ(f.rejected(), 2);
 }
 
+// A flipped bit in one stamp (+8.4 s on a 100 Hz stream) costs that message alone: the messages
+// after it pass (they were all taken for ones already passed), and the far one is passed once for
+// the consumer's gate to judge. A real gap (the stream goes on after it) still counts.
+TEST(CatchUpTest, StampFilterLetsALoneFarStampNotHideTheMessagesAfterIt) {
+  StampFilter f;
+  int64_t t = 1000000;
+  for (int i = 0; i < 20; ++i, t += 10000) EXPECT_TRUE(f.Accept("WHEELS", t));
+  const int64_t far = t + 8388608;
+  EXPECT_TRUE(f.Accept("WHEELS", far));
+  EXPECT_FALSE(f.Accept("WHEELS", far));  // the same message again (recording and bus)
+  for (int i = 0; i < 20; ++i, t += 10000) EXPECT_TRUE(f.Accept("WHEELS", t)) << i;
+  EXPECT_FALSE(f.Accept("WHEELS", t - 10000));  // repeats still rejected
+  EXPECT_EQ(f.rejected(), 2);
+
+  StampFilter gap;  // a real pause of 3 s: the messages after it pass, older ones do not
+  int64_t u = 1000000;
+  for (int i = 0; i < 20; ++i, u += 10000) EXPECT_TRUE(gap.Accept("WHEELS", u));
+  const int64_t resumed = u + 3000000;
+  EXPECT_TRUE(gap.Accept("WHEELS", resumed));
+  EXPECT_TRUE(gap.Accept("WHEELS", resumed + 10000));
+  EXPECT_FALSE(gap.Accept("WHEELS", resumed));
+  EXPECT_FALSE(gap.Accept("WHEELS", u));  // before the pause: already past
+}
+
 TEST(CatchUpTest, TrackerWaitsUntilTheRecordingReachesLiveData) {
   CatchUpTracker t({"WHEELS", "SCAN_MATCH"}, 2000000 /* quiet us */);
   EXPECT_FALSE(t.Complete(0));

@@ -94,6 +94,11 @@ int Diagnose(int argc, char** argv) {
   if (!args.Has("--quiet")) options.progress = [](const std::string& line) { std::cerr << line << "\n"; };
 
   const calib::DiagnoseReport report = calib::DiagnoseLog(robot, log_path, options);
+  // Said even with --quiet, as solve says it: the diagnosis stands on less than the recording holds.
+  for (const std::string& note : report.input_notes) std::cerr << "agvcal: left out: " << note << "\n";
+  if (report.input_dropped > 0)
+    std::cerr << "agvcal: " << report.input_dropped << " message(s) of " << log_path
+              << " left out of the diagnosis (REPORT.json input.notes)\n";
   for (const std::string& warning : report.warnings) std::cerr << "agvcal: warning: " << warning << "\n";
   std::cout << calib::DiagnoseSummaryText(report, args.Has("--verbose"));
 

@@ -65,6 +65,7 @@ int Run(int argc, char** argv) {
     heartbeat.Beat("running: " + std::to_string(published) + " poses");
   }
   bus.HandleQueued();
+  bus.Finish();  // a message a stream's gate still holds (after a long gap)
   fused.Finish();
   publish();
   // The counts received: compared with a recording's, they show a lost message.

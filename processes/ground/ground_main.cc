@@ -94,6 +94,8 @@ int Run(int argc, char** argv) {
     bus.HandleNext(200);
     heartbeat.Beat(state_line());
   }
+  bus.HandleQueued();
+  bus.Finish();  // a cloud the stream's gate still holds (after a long gap)
   heartbeat.Beat("stopped: " + state_line(), true /* force */);
 
   if (!args.Has("--out")) return calib::kExitOk;

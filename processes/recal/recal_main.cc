@@ -97,6 +97,7 @@ int Run(int argc, char** argv) {
                    (pending.valid() ? ", deciding" : ""));
   }
   bus.HandleQueued();
+  bus.Finish();  // a message a stream's gate still holds (after a long gap)
   if (pending.valid()) finish();  // a decision under way is written whole
   heartbeat.Beat("stopped", true);
   // What was received: a shortfall against the recording means lost messages.

@@ -89,6 +89,7 @@ int Run(int argc, char** argv) {
     heartbeat.Beat(state("running"));
   }
   bus.HandleQueued();
+  bus.Finish();  // a message a stream's gate still holds (after a long gap)
   publish(matcher.Finish());
   const calib::ScanMatchCounts& c = matcher.counts();
   std::cerr << "agvcal-scanmatch: stopped; received " << c.scans << " scans and " << bus.received(calib::kWheelsChannel)

@@ -12,6 +12,7 @@ python3 tests/tools/wheel_log.py $log "$TMP/jump.log" 1000 position drive 100
 expect_status 0 "diagnose the sample (one wheel state jumps)" \
   "$AGVCAL" diagnose "$robot" "$TMP/jump.log" --quiet --out "$TMP/report.json" --report "$TMP/report" \
   --write-sim "$TMP/reproduce.yaml" --sim "$log"
+stderr_has "1 message(s) of $TMP/jump.log left out of the diagnosis"  # said with --quiet too
 python3 - "$TMP/report.json" <<'PY' && pass "REPORT.json has the keys of spec/cli.md, and input names the left-out wheel state" || fail "REPORT.json keys"
 import json, sys
 r = json.load(open(sys.argv[1]))

@@ -4,6 +4,8 @@
 # supervisord, in a private network namespace).
 #  - One WHEELS message with a non-finite position: the solver skips it and lives on (no
 #    restart), says so on its HEARTBEAT (what the dashboard shows) and writes RESULT.json.
+#  - One WHEELS stamp +8.4 s ahead (a flipped bit): that sample alone is left out, live as
+#    offline; the result equals `agvcal solve`'s on the same recording.
 #  - Every SCAN with a NaN angle increment: no motion, the final solve fails, no RESULT.json:
 #    the group exits non-zero and gives the solver's reason.
 source "$(dirname "$0")/lib.bash" "$@"
@@ -28,6 +30,24 @@ grep -q "agvcal-solver: ignoring a message (reported once): .*WHEELS.*not finite
 solver_states "$TMP/nan/recording.log" >"$TMP/states"
 grep -q "running; 1 bad message skipped" "$TMP/states" && pass "the solver's HEARTBEAT counts the skipped message" ||
   fail "solver HEARTBEAT states: $(sort -u "$TMP/states" | head -5)"
+
+# One flipped bit in one WHEELS stamp: the solver delivers each message once by stamp; the
+# far stamp must not make it take the 8.4 s of samples after it for ones already delivered.
+python3 tests/tools/wheel_log.py $log "$TMP/stamp.log" 1000 utime 8388608
+"$AGVCAL" solve $robot "$TMP/stamp.log" --quiet --out "$TMP/stamp_offline.json" 2>/dev/null
+group stamp "$TMP/stamp.log"; code=$?
+[ "$code" -eq 0 ] && pass "a WHEELS stamp +8.4 s: the group ends with the replay (exit 0)" ||
+  fail "+8.4 s stamp: group exit $code: $(tail -3 "$TMP/stamp.out")"
+! grep -q "wheel states, the solver received" "$TMP/stamp/solver.out" &&
+  pass "the solver received every wheel state the recording holds" ||
+  fail "solver lost wheel states: $(grep "solver received" "$TMP/stamp/solver.out")"
+python3 - "$TMP/stamp_offline.json" "$TMP/stamp/RESULT.json" <<'PY' && pass "+8.4 s stamp: the group's result equals agvcal solve's" ||
+import json, sys
+a, b = (json.load(open(p)) for p in sys.argv[1:3])
+for k in ("params", "lidar2d", "residual"):
+    assert a[k] == b[k], (k, a[k], b[k])
+PY
+  fail "+8.4 s stamp: the group's result differs from agvcal solve's: $(diff "$TMP/stamp_offline.json" "$TMP/stamp/RESULT.json" | head -8)"
 
 # Every scan's angle_increment (after the hash, utime and angle_min) NaN.
 python3 tests/tools/corrupt_log.py $log "$TMP/noscan.log" SCAN all 20 =0x7fc00000

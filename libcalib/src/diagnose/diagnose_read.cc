@@ -101,7 +101,6 @@ DiagnoseData ReadDiagnoseData(const RobotDescription& robot, const std::string& 
     }
   }
   RecordingSource commands(log_path);
-  if (progress) commands.set_on_drop([&](const std::string& note) { progress("left out: " + note); });
   SubscribeDriveCommands(&commands, robot, [&](const DriveCommand& c) { out.commands.push_back(c); });
   commands.HandleAll();
   // The reader's skips were noted by the motions' read already: only DRIVE_CMD's own drops add.

@@ -1,6 +1,9 @@
 #include "calib/live/catch_up.h"
 
+#include <algorithm>
 #include <utility>
+
+#include "calib/core/stamp_gate.h"
 
 namespace calib {
 
@@ -12,12 +15,34 @@ std::optional<int64_t> LeadingStamp(const uint8_t* data, size_t size) {
 }
 
 bool StampFilter::Accept(const std::string& channel, int64_t stamp) {
-  const auto it = last_.find(channel);
-  if (it != last_.end() && stamp <= it->second) {
+  const StampGateOptions gap;
+  Channel& c = channels_[channel];
+  auto count = [&c, &gap](int64_t utime) {
+    if (c.last) {
+      c.intervals.push_back(double(utime - *c.last) * 1e-6);
+      if (c.intervals.size() > gap.spacing_window) c.intervals.pop_front();
+    }
+    c.last = utime;
+  };
+  if (c.ahead) {
+    if (stamp == *c.ahead) {
+      ++rejected_;
+      return false;
+    }
+    if (stamp > *c.ahead) count(*c.ahead);  // the gap was real
+    c.ahead.reset();
+  }
+  if (c.last && stamp <= *c.last) {
     ++rejected_;
     return false;
   }
-  last_[channel] = stamp;
+  const double spacing = MedianSpacing(c.intervals);
+  if (c.last && spacing > 0.0 &&
+      double(stamp - *c.last) * 1e-6 > std::max(gap.gap_spacings * spacing, gap.min_gap_s)) {
+    c.ahead = stamp;
+  } else {
+    count(stamp);
+  }
   return true;
 }
 

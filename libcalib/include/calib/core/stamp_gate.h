@@ -27,6 +27,7 @@ namespace calib {
 struct StampGateOptions {
   double gap_spacings = 50.0;
   double min_gap_s = 0.5;
+  std::size_t spacing_window = 15;  // intervals in the median of the usual spacing
 };
 
 // Median of the recent intervals between passed messages, s (0 while there are none).
@@ -82,8 +83,6 @@ class StampGate {
     int64_t utime;
     std::string origin;
   };
-  static constexpr std::size_t kSpacingWindow = 15;  // intervals in the median of the usual spacing
-
   void Take(T item, int64_t utime, const std::string& origin, std::vector<T>* out) {
     if (!last_utime_) {
       Pass(std::move(item), utime, out);
@@ -112,7 +111,7 @@ class StampGate {
   void Pass(T item, int64_t utime, std::vector<T>* out) {
     if (last_utime_) {
       intervals_.push_back(double(utime - *last_utime_) * 1e-6);
-      if (intervals_.size() > kSpacingWindow) intervals_.pop_front();
+      if (intervals_.size() > options_.spacing_window) intervals_.pop_front();
     }
     last_utime_ = utime;
     if (check_) last_ = item;  // kept only for the check (a scan or a cloud is not copied otherwise)

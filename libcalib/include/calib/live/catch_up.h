@@ -13,6 +13,7 @@
 // stamps increase strictly (LeadingStamp reads it without decoding).
 
 #include <cstdint>
+#include <deque>
 #include <map>
 #include <optional>
 #include <string>
@@ -24,14 +25,23 @@ namespace calib {
 // fingerprint); nothing if the message is shorter than 16 bytes.
 std::optional<int64_t> LeadingStamp(const uint8_t* data, size_t size);
 
-// Passes a message only if its stamp is newer than the last passed on its channel.
+// Passes a message only if its stamp is newer than the last passed on its channel. A stamp far
+// ahead of its channel's usual spacing (StampGateOptions: a flipped bit) is passed but does not
+// count as the last until the next message shows the gap real (it comes later still); else
+// the messages after it would all be taken for ones already passed. What to do with the lone
+// far stamp is the consumer's gate's to decide (core/stamp_gate.h), as over a recording.
 class StampFilter {
  public:
   bool Accept(const std::string& channel, int64_t stamp);
   int64_t rejected() const { return rejected_; }
 
  private:
-  std::map<std::string, int64_t> last_;
+  struct Channel {
+    std::optional<int64_t> last;   // the newest stamp passed that counts
+    std::optional<int64_t> ahead;  // a stamp passed far ahead of `last`, not yet confirmed
+    std::deque<double> intervals;  // s, between the last few that count
+  };
+  std::map<std::string, Channel> channels_;
   int64_t rejected_ = 0;
 };
 
