@@ -34,7 +34,7 @@ grep -q "running; 1 bad message skipped" "$TMP/states" && pass "the solver's HEA
 # One flipped bit in one WHEELS stamp: the solver delivers each message once by stamp; the
 # far stamp must not make it take the 8.4 s of samples after it for ones already delivered.
 python3 tests/tools/wheel_log.py $log "$TMP/stamp.log" 1000 utime 8388608
-"$AGVCAL" solve $robot "$TMP/stamp.log" --quiet --out "$TMP/stamp_offline.json" 2>/dev/null
+"$AGVCAL" solve $robot "$TMP/stamp.log" --quiet --out "$TMP/stamp_offline.json" >/dev/null 2>&1
 group stamp "$TMP/stamp.log"; code=$?
 [ "$code" -eq 0 ] && pass "a WHEELS stamp +8.4 s: the group ends with the replay (exit 0)" ||
   fail "+8.4 s stamp: group exit $code: $(tail -3 "$TMP/stamp.out")"
