@@ -5,6 +5,7 @@
 
 #include <gtest/gtest.h>
 
+#include <algorithm>
 #include <cmath>
 #include <string>
 
@@ -153,6 +154,33 @@ TEST(Discover, PhysicsOutsideTheLibraryAtSeveralTimesAControlsMisfitIsUnmodelled
   EXPECT_GT(r.misfit.variance_factor, 4.0);
   EXPECT_EQ(r.verdict, "unmodelled_structure") << "variance factor " << r.misfit.variance_factor << ", drift ratio "
                                                << r.misfit.heading_drift_ratio << "; " << DiscoveredText(r);
+}
+
+// A controller that takes a continuously changing setpoint at its 8.5 ms tick holds it half a
+// tick late on average: the drive layer's lag lands on the timing resolution of the command
+// stamps (4.25 ms) to within a few microseconds, and a tight sigma put it just above once a
+// term was planted: a drive lag was declared beside physics that has nothing to do with the
+// drive. A real lag of a couple of ticks on the same robot is still found.
+TEST(Discover, NoDriveLagAtTheTickOfAContinuousSetpointBesideAPlantedTerm) {
+  SimConfig config = Sim("diff_robot", 1, {{TermChannel::kYawRate, "turn_rate*|turn_rate|", 0.002}});
+  config.physics_rate_hz = 1.0 / 0.0085;
+  config.command_between = CommandsBetween::kContinuous;
+  config.command_rate_hz = 38.2;
+  config.wheels.rate_hz = 70.8;
+  config.wheels.ticks_per_rev = 11743;
+  const DiagnoseReport r = DiagnoseSim(config);
+  EXPECT_EQ(DiscoveredText(r).find("yaw_rate by turn_rate*|turn_rate|"), 0u) << DiscoveredText(r);
+  for (const FoundEffect& e : r.effects) EXPECT_NE(e.name, "drive_lag") << DiagnoseSummaryText(r);
+  const auto lag = std::find_if(r.candidates.begin(), r.candidates.end(),
+                                [](const CandidateOutcome& c) { return c.name == "drive_lag"; });
+  ASSERT_NE(lag, r.candidates.end());
+  EXPECT_GT(lag->detectable, 0.00425) << "beyond the half tick";
+
+  config.effects.drive_lag_tau_s = 0.01;
+  const DiagnoseReport lagged = DiagnoseSim(config);
+  const auto found = std::find_if(lagged.effects.begin(), lagged.effects.end(),
+                                  [](const FoundEffect& e) { return e.name == "drive_lag"; });
+  EXPECT_NE(found, lagged.effects.end()) << DiagnoseSummaryText(lagged);
 }
 
 // Controls: the same robots without a term.

@@ -270,13 +270,13 @@ Layer DriveLagLayer(const Series& s, const Track& tr, const std::vector<DriveCom
     return out;
   };
   L.regressor = CommandRate(s, s.speed_cmd);
-  // A lag shorter than the jitter of the command stamps (a controller's tick: when within it
-  // the robot took the command, CommandPeriod) cannot be told from that timing.
+  // A lag within the jitter of the command stamps (a controller's tick: when within it the
+  // robot took the command, CommandPeriod) cannot be told from that timing (JudgeLayer).
   CommandPeriod(commands, &L.min_value);
   std::ostringstream note;
   note.precision(3);
-  note << "shorter than the timing resolution of the command stamps (" << L.min_value << " s): not told from when the "
-       << "controller takes each command";
+  note << "not beyond the timing resolution of the command stamps (" << L.min_value
+       << " s) by more than its uncertainty: not told from when the controller takes each command";
   L.bound_note = note.str();
   return L;
 }
@@ -454,13 +454,17 @@ bool JudgeLayer(const Layer& L, const LayerTest& test, int m, double alpha, doub
   o->estimate = {value, value_std};
   o->p_value = test.p;
   o->p_adjusted = std::min(1.0, test.p * m * alpha / std::max(alpha_share, 1e-300));
-  // Never below the timing resolution (a drive lag within the command stamps' jitter is not told).
+  // A drive lag is told only beyond the timing resolution, by more than its own uncertainty at
+  // the test's level: a controller that takes each command at its next tick holds the setpoint
+  // half a tick late on average, so without any lag the estimate sits at the resolution itself
+  // and, with a tight sigma, falls just above or below it by chance.
   // A rate limit is the larger the slower: the fastest limit the recording can tell is its
   // ceiling (the commands' own ramp less the timing share).
-  o->detectable = L.log_search ? L.max_value
-                               : std::max((NormalUpper(alpha_share / m) + NormalUpper(0.2)) * value_std, L.min_value);
+  const double z_level = NormalUpper(alpha_share / m);
+  o->detectable = L.log_search ? L.max_value : L.min_value + (z_level + NormalUpper(0.2)) * value_std;
   const bool at_null_edge = L.log_search && test.est > L.hi - 0.5;  // no limit inside the searched range
-  const bool unresolved = value < L.min_value || value >= L.max_value;
+  const bool within_resolution = L.min_value > 0 && value < L.min_value + z_level * value_std;
+  const bool unresolved = within_resolution || value >= L.max_value;
   const bool significant = test.p * m < alpha_share && test.gain > kMinGain && !at_null_edge && !unresolved;
   if (significant) {
     o->status = CandidateStatus::kFound;
