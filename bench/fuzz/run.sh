@@ -5,7 +5,8 @@
 #   bench/fuzz/run.sh --ci          all targets for 4 s each on the committed corpus (ctest fuzz_smoke;
 #                                   AGVCAL_FUZZ_SECONDS=S sets the seconds per target)
 #   AGVCAL_FUZZ_RUNS=N bench/fuzz/run.sh TARGET|all 0   stop each target after N executions instead
-# Builds build-fuzz/ first (clang++, -DAGVCAL_FUZZ=ON; AGVCAL_FUZZ_BUILD overrides the directory).
+# Builds the targets it runs in build-fuzz/ first (clang++, -DAGVCAL_FUZZ=ON; AGVCAL_FUZZ_BUILD overrides
+# the directory).
 # New inputs go to build-fuzz/corpus/TARGET (the committed bench/fuzz/corpus/TARGET is only read),
 # a crashing input to build-fuzz/artifacts/TARGET/. Exit 0 only when no target crashed.
 set -euo pipefail
@@ -13,7 +14,7 @@ here=$(cd "$(dirname "$0")/../.." && pwd)
 build=${AGVCAL_FUZZ_BUILD:-$here/build-fuzz}
 targets_all=(recording messages robot_file sim_config pcd kitti carmen mines lego optiodom pose_csv
              candump sick_cola bridge_config mcap)
-usage() { sed -n '2,10p' "$0" | sed 's/^# \{0,1\}//'; }
+usage() { sed -n '2,11p' "$0" | sed 's/^# \{0,1\}//'; }
 ci=0
 case "${1:-}" in
   -h|--help) usage; exit 0 ;;
@@ -34,7 +35,8 @@ if [ ! -f "$build/CMakeCache.txt" ]; then
   cmake -S "$here" -B "$build" -DAGVCAL_FUZZ=ON -DCMAKE_CXX_COMPILER=clang++ \
         -DCMAKE_BUILD_TYPE=RelWithDebInfo -DCMAKE_CXX_FLAGS_RELWITHDEBINFO=-O1 >/dev/null
 fi
-cmake --build "$build" -j"$(nproc)" >/dev/null
+# Only the targets to run (not fuzz_seeds, nor the Java types a full build makes too).
+cmake --build "$build" -j"$(nproc)" --target "${targets[@]/#/fuzz_}" >/dev/null
 
 export ASAN_OPTIONS=${ASAN_OPTIONS:-detect_leaks=1:abort_on_error=1}
 export UBSAN_OPTIONS=${UBSAN_OPTIONS:-print_stacktrace=1:halt_on_error=1}

@@ -36,9 +36,10 @@ expect_status 2 "an unknown option" "$AGVCAL" diagnose "$robot" "$log" --bogus
 expect_status 2 "a bad --alpha" "$AGVCAL" diagnose "$robot" "$log" --alpha 2
 if [ -e "$TMP/report.partial.json" ]; then fail "partial file left"; else pass "no partial file"; fi
 
-# The suite, CI size: controls name nothing, single effects are named right.
+# The suite, CI size: controls name nothing, single effects are named right. The bound is for a
+# hang only (the test's ctest TIMEOUT is above it): a loaded machine makes the suite slow, not wrong.
 expect_status 0 "mismatch suite (quick)" \
-  timeout 500 scripts/mismatch-suite.sh --build "$BUILD" --quick --seeds 1 --controls 1 --jobs 2 \
+  timeout 1500 scripts/mismatch-suite.sh --build "$BUILD" --quick --seeds 1 --controls 1 --jobs 2 \
   --work "$TMP/suite" --json "$TMP/suite.json"
 python3 - "$TMP/suite.json" <<'PY' && pass "suite: controls clean, effects named" || fail "suite: $(cat "$TMP/suite.json" | head -c 1500)"
 import json, sys
