@@ -88,10 +88,11 @@ CalibrationData ReadCalibrationData(const RobotDescription& robot, const std::st
                                     MotionSource source,
                                     const std::function<void(const std::string&)>& progress,
                                     const std::function<void(LaserScan*)>& adjust_scan,
-                                    int64_t deskew_shift_us, RecordingSource::Mode mode) {
+                                    int64_t deskew_shift_us, RecordingSource::Mode mode,
+                                    const ScanMatchOptions& match_options) {
   CalibrationData data(robot);
   std::optional<ScanMatcher> matcher;
-  if (source == MotionSource::kLidar2d) matcher.emplace(robot);
+  if (source == MotionSource::kLidar2d) matcher.emplace(robot, match_options);
   auto add_matches = [&](const std::vector<ScanMatchOutcome>& outcomes) {
     for (const ScanMatchOutcome& outcome : outcomes) {
       if (!outcome.matched()) continue;

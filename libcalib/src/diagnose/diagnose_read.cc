@@ -17,6 +17,18 @@
 namespace calib {
 namespace {
 
+// The matcher the diagnosis reads with: its interval model (DiagnoseData::deskew_robot) closes
+// each match with the de-skew odometry, so every scan must be de-skewed with the odometry alone.
+// The matcher's correction by the match would de-skew the pairs where the match and the
+// odometry disagree (under a time offset: every change of speed or turn rate) with the match's
+// motion instead, which the model does not describe; the diagnosis corrects the de-skewing its
+// own way (matched again with the calibrated model, then on the wheel clock of the offset found).
+ScanMatchOptions DiagnosisMatching() {
+  ScanMatchOptions options;
+  options.deskew_correction_passes = 0;
+  return options;
+}
+
 // WHEELS and the sensor motions, the scans de-skewed with `robot`'s drive model.
 // `shift_us` moves the scans' stamps onto the wheel clock for de-skewing and matching;
 // the motions get their recorded stamps back, so a time offset stays in the data.
@@ -40,8 +52,9 @@ void ReadMotions(const RobotDescription& robot, const std::string& log_path,
       if (scan->HasReturn(i)) sum += i * scan->time_increment, ++returns;
     leads.push_back(returns > 0 ? sum / returns : 0.0);
   };
-  const CalibrationData cal = ReadCalibrationData(robot, log_path, out.source, progress,
-                                                  std::function<void(LaserScan*)>(check_scan), shift_us);
+  const CalibrationData cal =
+      ReadCalibrationData(robot, log_path, out.source, progress, std::function<void(LaserScan*)>(check_scan),
+                          shift_us, RecordingSource::Mode::kComplete, DiagnosisMatching());
   out.wheels = cal.wheels();
   out.motions = cal.motions();
   out.input_dropped = cal.dropped_input();
@@ -67,7 +80,7 @@ void ReadMotions(const RobotDescription& robot, const std::string& log_path,
         [&](LaserScan* scan) {
           if (scan->size() > 1) scan->time_increment = scan_time / scan->size();
         },
-        shift_us);
+        shift_us, RecordingSource::Mode::kComplete, DiagnosisMatching());
     out.motions_spread = spread.motions();
   }
 }

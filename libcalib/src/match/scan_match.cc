@@ -1,5 +1,7 @@
 #include "calib/match/scan_match.h"
 
+#include "match/deskew_correction.h"
+
 #include <algorithm>
 #include <cmath>
 #include <cstdio>
@@ -245,7 +247,7 @@ std::vector<WheelSample> ReadingsAt(const WheelTrack& track, const std::vector<d
 }  // namespace
 
 ScanPoints DeskewScan(const LaserScan& scan, const WheelTrack& track, const DriveModel& model,
-                      const Pose2& mount, double smoothing_s) {
+                      const Pose2& mount, double smoothing_s, const Twist2& correction) {
   if (scan.time_increment <= 0.0 || scan.size() < 2) return ScanToPoints(scan);
   const double t0 = double(scan.utime), t1 = scan.BeamTime(scan.size() - 1);
   if (!track.Covers(t0, t1))
@@ -283,7 +285,8 @@ ScanPoints DeskewScan(const LaserScan& scan, const WheelTrack& track, const Driv
     if (!scan.HasReturn(i)) continue;
     const double t = scan.BeamTime(i);
     while (k + 2 < knots.size() && t > knots[k + 1]) ++k;
-    const Pose2 pose = Compose(sensor[k], ExpTwist(twist[k], (t - knots[k]) * 1e-6));
+    const Pose2 pose = Compose(Compose(sensor[k], ExpTwist(twist[k], (t - knots[k]) * 1e-6)),
+                               ExpTwist(correction, (t - t0) * 1e-6));
     const double a = scan.BeamAngle(i), r = scan.ranges[i];
     out.points.push_back(Apply(pose, {r * std::cos(a), r * std::sin(a)}));
   }
@@ -682,28 +685,62 @@ void ScanMatcher::Process(std::vector<ScanMatchOutcome>* out, bool finishing) {
         continue;
       }
     }
-    PreparedScan prepared(
-        options_.deskew ? DeskewScan(scan, track_, *model_, mount_, options_.deskew_smoothing_s)
-                        : ScanToPoints(scan),
-        options_);
+    std::optional<PreparedScan> prepared;
     if (reference_) {
-      out->push_back({ScanMatchStatus::kMatched, scan.utime, MatchWithReference(scan, prepared)});
+      out->push_back({ScanMatchStatus::kMatched, scan.utime, MatchWithReference(scan, &prepared)});
     } else {
+      prepared.emplace(Deskewed(scan, {mount_, {}}), options_);
       out->push_back({ScanMatchStatus::kFirstKeyframe, scan.utime, {}});
     }
-    reference_.emplace(std::move(prepared));
+    reference_.emplace(std::move(*prepared));
     waiting_.pop_front();
     progressed = true;
   }
   if (progressed) ReleaseOldWheels();
 }
 
-// The match of `scan` (prepared) with the reference keyframe, refused (valid = false) over an
-// encoder gap.
-SensorMotion ScanMatcher::MatchWithReference(const LaserScan& scan, const PreparedScan& prepared) {
-  const double t0 = double(reference_->utime()), t1 = double(scan.utime);
+ScanPoints ScanMatcher::Deskewed(const LaserScan& scan, const DeskewCorrection& correction) const {
+  return options_.deskew ? DeskewScan(scan, track_, *model_, correction.mount, options_.deskew_smoothing_s,
+                                      correction.twist)
+                         : ScanToPoints(scan);
+}
+
+namespace {
+// Once corrected, the de-skewing is corrected again until a pass moves a point by less than this
+// share of deskew_correction_m.
+constexpr double kDeskewConvergedShare = 0.05;
+}  // namespace
+
+// The match of `scan` with the reference keyframe, refused (valid = false) over an encoder gap;
+// `prepared` gets the scan as de-skewed for it: with the odometry, then, while the match moves a
+// point of the scan by more than deskew_correction_m over the scan's duration, with the motion
+// the match says (deskew_correction.h), and matched again.
+SensorMotion ScanMatcher::MatchWithReference(const LaserScan& scan, std::optional<PreparedScan>* prepared) {
+  const double t0 = double(reference_->utime()), t1 = double(scan.utime), t_end = double(scan.end_utime());
   const Pose2 prior = PredictSensorMotion(track_, *model_, mount_, t0, t1);
-  SensorMotion motion = MatchScans(*reference_, prepared, prior, options_);
+  DeskewCorrection correction{mount_, {}};
+  prepared->emplace(Deskewed(scan, correction), options_);
+  SensorMotion motion = MatchScans(*reference_, **prepared, prior, options_);
+  if (options_.deskew && scan.time_increment > 0.0 && t_end > t1 && t1 > t0) {
+    const Pose2 pair_motion = track_.Odometry(*model_, t0, t1), scan_motion = track_.Odometry(*model_, t1, t_end);
+    const double duration_s = (t_end - t1) * 1e-6;
+    double range = 0.0;
+    for (const Eigen::Vector2d& p : (*prepared)->points().points) range = std::max(range, p.norm());
+    for (int pass = 0; pass < options_.deskew_correction_passes && motion.valid; ++pass) {
+      const DeskewCorrection next = CorrectionFromMatch(pair_motion, mount_, motion.delta, (t1 - t0) * 1e-6);
+      const Pose2 change = Between(CorrectedSensorMotion(correction, scan_motion, duration_s),
+                                   CorrectedSensorMotion(next, scan_motion, duration_s));
+      const double shift = std::hypot(change.x, change.y) + range * std::abs(change.theta);
+      if (shift < options_.deskew_correction_m * (pass == 0 ? 1.0 : kDeskewConvergedShare)) break;
+      correction = next;
+      std::optional<PreparedScan> again;
+      again.emplace(Deskewed(scan, correction), options_);
+      const SensorMotion rematched = MatchScans(*reference_, *again, motion.delta, options_);
+      if (!rematched.valid) break;
+      motion = rematched;
+      *prepared = std::move(again);
+    }
+  }
   // Encoder gaps over the pair: the prior and the de-skewing are guesses there.
   const std::vector<int64_t>& utime = track_.utimes();
   auto it = std::upper_bound(utime.begin(), utime.end(), t0, [](double t, int64_t u) { return t < double(u); });

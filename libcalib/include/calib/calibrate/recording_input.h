@@ -57,13 +57,15 @@ CalibrationData ReadCalibrationData(const RobotDescription& robot, const std::st
 // (the diagnosis re-matches with other beam timing; may be empty), and matched on the wheel
 // clock: stamped `deskew_shift_us` earlier, so it is de-skewed with the wheel data of the time
 // its beams were taken under a time offset of that size; the motions get the recorded stamps
-// back, so the offset stays in the data without the de-skew error it causes.
+// back, so the offset stays in the data without the de-skew error it causes. `match_options`
+// configure the ScanMatcher (the diagnosis turns its de-skew correction off).
 CalibrationData ReadCalibrationData(const RobotDescription& robot, const std::string& log_path,
                                     MotionSource source,
                                     const std::function<void(const std::string&)>& progress,
                                     const std::function<void(LaserScan*)>& adjust_scan,
                                     int64_t deskew_shift_us = 0,
-                                    RecordingSource::Mode mode = RecordingSource::Mode::kComplete);
+                                    RecordingSource::Mode mode = RecordingSource::Mode::kComplete,
+                                    const ScanMatchOptions& match_options = {});
 
 // Whether `solve` runs a second pass (SolveAgainDeskewed) after the first: on scans (their
 // de-skewing and the choice of keyframes follow the model the matcher predicts with).

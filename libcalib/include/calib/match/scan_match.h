@@ -34,6 +34,8 @@
 
 namespace calib {
 
+struct DeskewCorrection;  // match/deskew_correction.h
+
 struct ScanMatchOptions {
   // Correspondences.
   double max_correspondence_distance_m = 0.3;  // point to its nearest reference point
@@ -65,6 +67,13 @@ struct ScanMatchOptions {
   bool deskew = true;                // false: every beam taken at the scan's utime
   double deskew_smoothing_s = 0.0;   // > 0: readings smoothed over the scan and this margin
                                      // (docs/calibration.md, Scan matching, 1.)
+  // Where the match says the sensor moved otherwise than the odometry over a pair by so much that
+  // de-skewing with the match's motion moves a point of the scan by more than this (a mount or
+  // drive parameter far from nominal, over a turn, at a low scan rate), the scan is de-skewed
+  // with the match's motion and matched again, until a pass moves the points by less than a
+  // twentieth of it, at most this many passes (ScanMatcher; docs/calibration.md, "Low-rate recordings").
+  double deskew_correction_m = 0.02;
+  int deskew_correction_passes = 4;
   // An encoder gap within a pair longer than both of these makes the match invalid:
   double max_wheel_gap_s = 0.25;     // s
   double wheel_gap_factor = 2.5;     // times the median of the last 15 encoder intervals
@@ -94,8 +103,10 @@ ScanPoints ScanToPoints(const LaserScan& scan);
 // readings are smoothed over the scan and that margin either side (as far as the track
 // reaches). Throws std::invalid_argument when the track does not cover the
 // scan's beams (scan.utime .. BeamTime(last)).
+// `correction`: a constant twist of the sensor (its frame) added to the odometry's motion
+// from scan.utime on (ScanMatcher: the match's correction of the odometry over the pair).
 ScanPoints DeskewScan(const LaserScan& scan, const WheelTrack& track, const DriveModel& model,
-                      const Pose2& mount, double smoothing_s = 0.0);
+                      const Pose2& mount, double smoothing_s = 0.0, const Twist2& correction = {});
 
 // Motion of the sensor mounted at `mount` over [t0, t1] (us) predicted by the
 // odometry: Inverse(mount) ∘ track.Odometry(model, t0, t1) ∘ mount, in the
@@ -234,7 +245,8 @@ class ScanMatcher {
   void CheckClocks(int64_t scan_utime, int64_t wheel_utime);
   // Settles the waiting scans the wheel data now cover, in order, into `out`.
   void Process(std::vector<ScanMatchOutcome>* out, bool finishing = false);
-  SensorMotion MatchWithReference(const LaserScan& scan, const PreparedScan& prepared);
+  SensorMotion MatchWithReference(const LaserScan& scan, std::optional<PreparedScan>* prepared);
+  ScanPoints Deskewed(const LaserScan& scan, const DeskewCorrection& correction) const;
   // Takes the first waiting scan off, with its outcome.
   void SkipFirstWaiting(ScanMatchStatus why, std::vector<ScanMatchOutcome>* out);
   void ReleaseOldWheels();
