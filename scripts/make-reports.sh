@@ -4,6 +4,8 @@
 #   OUT/solve     the forklift sample logs/forklift_demo.log, the last 30 % held out
 #   OUT/ground    the simulated forklift's 3D lidar on the demo route (config/sims/forklift_lidar3d.yaml)
 #   OUT/recal     the forklift's simulated work route (config/sims/forklift_route.yaml)
+#   OUT/fleet     agvcal-fleet's pages of a small simulated fleet (agvcal-fleet synth: a forklift
+#                 with a step and a truncated recording, a drifting differential drive; 5 recordings each over 28 days)
 # The recordings are made in OUT/work. Used by the report tests (tests/reports/reports.sh) and
 # scripts/report-screenshots.sh.
 # Usage: scripts/make-reports.sh BUILD OUT
@@ -35,4 +37,9 @@ say "recal: the forklift's work route"
 "$AGVCAL" simulate config/sims/forklift_route.yaml "$W/route.log" --trajectory route --quiet
 "$AGVCAL" recal config/robots/forklift_nav.yaml "$W/route.log" --config config/recal.yaml \
   --report "$OUT/recal" > "$W/recal.txt"
-say "done: $OUT/{diagnose,solve,ground,recal}/index.html"
+say "fleet: two simulated robots, 5 recordings each and a truncated one"
+AGVCAL_BIN=$BUILD scripts/agvcal-fleet synth "$W/fleet" --plan step@forklift,drift@diff --recordings 5 --days 28 \
+  --broken 1 --seed 7 --jobs 2 --quiet
+AGVCAL_BIN=$BUILD scripts/agvcal-fleet run "$W/fleet/fleet.yaml" --db "$W/fleet.sqlite" --workers 2 --quiet
+AGVCAL_BIN=$BUILD scripts/agvcal-fleet report --db "$W/fleet.sqlite" --out "$OUT/fleet"
+say "done: $OUT/{diagnose,solve,ground,recal,fleet}/index.html"

@@ -9,6 +9,7 @@
 #include "agvcal/wheel_state_t.hpp"
 #include "calib/io/log_summary.h"
 #include "calib/io/messages.h"
+#include "calib/io/process_names.h"
 #include "calib/io/text_plot.h"
 #include "calib/live/dashboard_model.h"
 
@@ -134,6 +135,54 @@ TEST(DashboardModel, ProcessHealthAndRestarts) {
   EXPECT_EQ(p[1].restarts, 1);
   EXPECT_NEAR(p[1].age_s, 2.0, 1e-12);
   EXPECT_EQ(p[1].state, "running");
+}
+
+// The group's recording marks (agvcal-recording drain, one short-lived pid per waiting process)
+// are no process: a replay's dashboard does not list "group" as restarted, then stale all run.
+TEST(DashboardModel, GroupMarksAreNoProcess) {
+  DashboardModel model;
+  agvcal::heartbeat_t mark{};
+  mark.process = kGroupMarkProcess;
+  mark.state = "draining the logger";
+  for (int pid = 10; pid < 13; ++pid) {
+    mark.pid = pid;
+    model.OnHeartbeat(mark, pid * 100000);
+  }
+  agvcal::heartbeat_t beat{};
+  beat.process = "solver";
+  beat.pid = 100;
+  beat.state = "running";
+  model.OnHeartbeat(beat, 20 * kSecond);
+  const std::vector<ProcessView> p = model.Processes(20 * kSecond);
+  ASSERT_EQ(p.size(), 1u);
+  EXPECT_EQ(p[0].name, "solver");
+  EXPECT_FALSE(p[0].stale);
+  EXPECT_EQ(model.runs(), 1);
+}
+
+// The solver's channels come once per solve (every 20 motions, about 12 s on the samples): not
+// stale between two solves while the solver beats; stale once it is silent too. A sensor's
+// channel is stale after 3 s.
+TEST(DashboardModel, SolverChannelsFreshWhileTheSolverBeats) {
+  DashboardModel model;
+  agvcal::heartbeat_t beat{};
+  beat.process = kSolverProcess;
+  beat.pid = 7;
+  beat.state = "running";
+  for (int i = 0; i <= 20; ++i) model.OnHeartbeat(beat, i * kSecond);
+  model.OnMessage(kCalibEstimateChannel, "calib_estimate_t", true, std::nullopt, 12 * kSecond);
+  model.OnMessage(kCalibResidualsChannel, "calib_residual_t", true, std::nullopt, 12 * kSecond);
+  model.OnMessage(kWheelsChannel, "wheel_state_t", true, std::nullopt, 12 * kSecond);
+  auto stale = [&](const std::string& name, int64_t now) {
+    for (const ChannelView& c : model.Channels(now))
+      if (c.name == name) return c.stale;
+    ADD_FAILURE() << name << " not listed";
+    return false;
+  };
+  EXPECT_FALSE(stale(kCalibEstimateChannel, 20 * kSecond));  // 8 s after the estimate, the solver beat 0 s ago
+  EXPECT_FALSE(stale(kCalibResidualsChannel, 20 * kSecond));
+  EXPECT_TRUE(stale(kWheelsChannel, 20 * kSecond));
+  EXPECT_TRUE(stale(kCalibEstimateChannel, 25 * kSecond));   // the solver silent for 5 s
 }
 
 // Left running across two groups (issue 17 item 11): the second run's processes are not the

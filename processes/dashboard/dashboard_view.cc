@@ -43,17 +43,6 @@ std::string Clip(const std::string& s, int cells) {
   return s;
 }
 
-// At most `cells` cells of `s`, cut at a word boundary with "..." when it is longer (a single
-// word longer than that is cut).
-std::string ClipWords(const std::string& s, int cells) {
-  if (Cells(s) <= cells) return s;
-  if (cells <= 3) return Clip(s, cells);
-  std::string head = Clip(s, cells - 3);
-  const std::size_t space = head.rfind(' ');
-  if (space != std::string::npos && space > 0) head.resize(space);
-  return head + "...";
-}
-
 // Writes `text` at (y, x), clipped to the screen; the last line stays for the footer.
 void Put(int y, int x, const std::string& text, Color color = kPlain, bool bold = false) {
   if (y < 0 || y >= LINES || x >= COLS) return;
@@ -214,6 +203,7 @@ void DrawOverview(const calib::DashboardModel& model, int64_t now_us, const View
     x += 10;
     for (const calib::ProcessView& p : model.Processes(now_us)) {
       const std::string s = p.name + (p.stale ? " STALE" : " ok") + (p.restarts ? calib::Formatted("(%dr)", p.restarts) : "");
+      if (x > 10 && x + Cells(s) > COLS && RowsLeft(y + 1) >= 1) x = 10, ++y;  // the next row, not off the edge
       Put(y, x, s, p.stale ? kBad : kGood);
       x += Cells(s) + 2;
     }
@@ -329,9 +319,12 @@ void DrawBus(const calib::DashboardModel& model, int64_t now_us) {
   }
   for (const calib::ProcessView& p : processes) {
     if (RowsLeft(y) < 2) break;
-    Put(y, 0, calib::Formatted("%-14s %6d  %-30s %7s %9d", Clip(p.name, 14).c_str(), p.pid, ClipWords(p.state, 30).c_str(),
-                     Age(p.age_s).c_str(), p.restarts));
+    // The state wrapped in its column (a stopped process says what it did), up to 3 rows.
+    const std::vector<std::string> state = calib::WrapWords(p.state, 30, 3);
+    Put(y, 0, calib::Formatted("%-14s %6d  %-30s %7s %9d", Clip(p.name, 14).c_str(), p.pid,
+                               state.empty() ? "" : state[0].c_str(), Age(p.age_s).c_str(), p.restarts));
     Put(y++, 72, p.stale ? "STALE" : "ok", p.stale ? kBad : kGood);
+    for (std::size_t i = 1; i < state.size() && RowsLeft(y) >= 2; ++i) Put(y++, 22, state[i]);
   }
   if (RowsLeft(y) >= 1) {
     const calib::CommanderView c = model.Commander(now_us);

@@ -15,6 +15,7 @@
 #include "agvcal/heartbeat_t.hpp"
 #include "calib/core/errors.h"
 #include "calib/io/messages.h"
+#include "calib/io/process_names.h"
 #include "calib/io/recording.h"
 #include "calib/io/recording_tail.h"
 #include "common/process_util.h"
@@ -37,8 +38,6 @@ void Declare(agvcal_process::CommandLine* args) {
       .Footer("Exit status: 0 done, 1 the mark never reached the recording (drain), 2 unusable input.\n");
 }
 
-constexpr const char* kGroupProcess = "group";
-
 int Repair(const std::string& path) {
   if (!std::filesystem::exists(path)) return calib::kExitOk;  // a first start: nothing to repair
   const calib::RecordingTail tail = calib::CutToLastWholeEvent(path);
@@ -55,7 +54,7 @@ bool MarkRecorded(calib::LogReader* reader, const std::string& mark, int64_t* ev
     ++*events;
     if (event.channel != calib::kHeartbeatChannel) continue;
     agvcal::heartbeat_t beat;
-    if (calib::Decode(event.data.data(), int(event.data.size()), &beat) && beat.process == kGroupProcess &&
+    if (calib::Decode(event.data.data(), int(event.data.size()), &beat) && beat.process == calib::kGroupMarkProcess &&
         beat.state == mark)
       return true;
   }
@@ -66,7 +65,7 @@ int Drain(const std::string& path, double timeout_s, const std::string& url) {
   lcm::LCM lcm(url);
   agvcal_process::RequireGoodBus(lcm, url);
   agvcal::heartbeat_t beat;
-  beat.process = kGroupProcess;
+  beat.process = calib::kGroupMarkProcess;
   beat.pid = static_cast<int32_t>(getpid());
   beat.state = "draining the logger " + std::to_string(getpid());
   const auto start = std::chrono::steady_clock::now();

@@ -27,6 +27,7 @@
 #include "calib/io/atomic_file.h"
 #include "calib/io/message_source.h"
 #include "calib/io/messages.h"
+#include "calib/io/process_names.h"
 #include "calib/live/estimate_messages.h"
 #include "common/bus_source.h"
 #include "common/process_util.h"
@@ -263,7 +264,7 @@ int Run(int argc, char** argv) {
   Solver solver(robot, source, options, &bus.lcm());
   solver.set_every(static_cast<std::size_t>(every));
   solver.Subscribe(&bus);
-  Heartbeat heartbeat(&bus.lcm(), "solver");
+  Heartbeat heartbeat(&bus.lcm(), calib::kSolverProcess);
   bus.ReportOn(&heartbeat);
   InstallStopHandlers();
   // The second pass's reading waits for lcm-logger to write what the solver received: two

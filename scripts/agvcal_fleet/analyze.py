@@ -287,16 +287,22 @@ def is_angle(name):
     return name.endswith("yaw") or name.endswith("steer_offset") or name.endswith("pitch") or name.endswith("roll")
 
 
+def param_unit(name):
+    """(factor, unit) in which a person reads a parameter (docs/units.md): angles in degrees,
+    the time offset in ms, lengths in mm."""
+    if is_angle(name):
+        return 180 / math.pi, "deg"
+    if name.endswith("time_offset"):
+        return 1e3, "ms"
+    return 1e3, "mm"
+
+
 def fmt_param(name, v, signed=True):
     """A parameter value (or change) in readable units: angles in degrees, lengths in mm."""
     if v is None or not math.isfinite(v):
         return "n/a"
-    sign = "+" if signed else ""
-    if is_angle(name):
-        return f"{math.degrees(v):{sign}.3f} deg"
-    if name.endswith("time_offset"):
-        return f"{v * 1e3:{sign}.2f} ms"
-    return f"{v * 1e3:{sign}.2f} mm"
+    k, unit = param_unit(name)
+    return f"{v * k:{'+' if signed else ''}.{3 if unit == 'deg' else 2}f} {unit}"
 
 
 def fmt_p(p):
@@ -312,16 +318,21 @@ def fmt_error_per_m(v):
     return "n/a" if v is None or not math.isfinite(v) else f"{v * 1e3:.1f} mm/m"
 
 
+# (factor, unit) of each effect's size parameter as a person reads it (SI in docs/spec/effects.md).
+EFFECT_UNITS = {"offset_s": (1e3, "ms"), "scan_period_s": (1e3, "ms"), "tau_s": (1e3, "ms"),
+                "gain": (1e3, "ms"), "slip_per_accel": (1.0, "s²/m"), "width_rad": (180 / math.pi, "deg"),
+                "rate_rad_s": (180 / math.pi, "deg/s"), "amplitude": (100.0, "% of the radius")}
+
+
+def effect_unit(param):
+    return EFFECT_UNITS.get(param, (1.0, param))
+
+
 def fmt_effect(key, v):
-    name = key.split(":")[0]
-    p = EFFECT_SIZE_PARAM.get(name, "")
     if v is None or not math.isfinite(v):
         return "n/a"
-    if p.endswith("_s"):
-        return f"{v * 1e3:.2f} ms"
-    if p.endswith("_rad"):
-        return f"{math.degrees(v):.3f} deg"
-    return f"{p} {v:.3g}"
+    k, unit = effect_unit(EFFECT_SIZE_PARAM.get(key.split(":")[0], ""))
+    return f"{v * k:.{3 if unit == 'deg' else 2}f} {unit}" if unit in ("ms", "deg") else f"{v * k:.3g} {unit}".rstrip()
 
 
 def date(utime):

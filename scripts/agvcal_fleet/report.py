@@ -18,7 +18,7 @@ import re
 
 from . import analyze as an
 from . import stats
-from .svg import Plot, date_ticks, ticks
+from . import svg
 
 # The reports' one stylesheet, the C++ reports' too (their pages embed it at build time).
 STYLE_FILE = os.path.join(os.path.dirname(os.path.abspath(__file__)), "..", "..", "libcalib", "src", "io",
@@ -173,13 +173,11 @@ def write(out, robots, result, db, prov=None):
         for i, f in enumerate(fleet_fx):
             links = ", ".join(f'<a href="robots/{slug(x)}.html">{e(x)}</a>' for x in f["detail"]["robots"])
             b.append(f"<p>{kind_badge('fleet_effect')} {e(f['why'])}.<br><span class=\"small\">Robots: {links}</span></p>")
-            b.append(f'<img src="fleet_effect_{i}.svg" width="640" height="200" alt="{e(f["subject"])} over the fleet">')
+            b.append(img(f"fleet_effect_{i}.svg", PLOT_HEIGHT, f"{f['subject']} over the fleet"))
     b.append("<h2>Robots that need attention</h2>")
     if attention:
-        b.append(f'<img src="evidence.svg" width="640" height="{evidence_height(list(robots))}" '
-                 'alt="strongest evidence per robot">')
-        b.append('<img src="timeline.svg" alt="timeline of the robots that need attention" '
-                 f'width="640" height="{timeline_height(len(attention))}">')
+        b.append(img("evidence.svg", evidence_height(list(robots)), "strongest evidence per robot"))
+        b.append(img("timeline.svg", timeline_height(len(attention)), "timeline of the robots that need attention"))
         b.append('<table class="fixed"><tr><th style="width:13%">robot</th><th style="width:9%">drive</th>'
                  '<th style="width:11%">finding</th><th>why</th></tr>')
         for rid in attention:
@@ -192,8 +190,7 @@ def write(out, robots, result, db, prov=None):
     else:
         b.append('<p class="ok">None: every robot\'s parameters are constant within their sigmas, no '
                  'effect persists, no recording failed.</p>')
-        b.append(f'<img src="evidence.svg" width="640" height="{evidence_height(list(robots))}" '
-                 'alt="strongest evidence per robot">')
+        b.append(img("evidence.svg", evidence_height(list(robots)), "strongest evidence per robot"))
     failed = [(rid, r) for rid, rob in robots.items() for r in rob["recordings"]
               if r.solve_exit != 0 or r.diag_exit != 0]
     if failed:
@@ -251,14 +248,14 @@ def write_robot(out, rid, rob, findings, result, prov=None):
     for i, (name, sr) in enumerate(sorted(ser.items())):
         fname = f"{s}_p{i}.svg"
         write_file(os.path.join(d, fname), param_svg(name, sr, findings, xlo, xhi))
-        b.append(f'<img src="{fname}" width="640" height="200" alt="{e(name)} over time">')
+        b.append(img(fname, PLOT_HEIGHT, f"{name} over time"))
     keys = sorted({k for r in recs for k in r.effects})
     if keys:
         b.append("<h2>Effects found by the diagnosis</h2>")
         for i, key in enumerate(keys):
             fname = f"{s}_e{i}.svg"
             write_file(os.path.join(d, fname), effect_svg(key, recs, xlo, xhi))
-            b.append(f'<img src="{fname}" width="640" height="200" alt="{e(key)} over time">')
+            b.append(img(fname, PLOT_HEIGHT, f"{key} over time"))
     b.append("<h2>Recordings</h2><table class=\"fixed\"><tr><th style=\"width:11%\">date</th><th style=\"width:27%\">file</th>"
              "<th style=\"width:9%\">s, m driven</th><th style=\"width:9%\">solve</th><th style=\"width:16%\">held-out</th>"
              "<th>diagnosis</th></tr>")
@@ -282,56 +279,88 @@ def write_robot(out, rid, rob, findings, result, prov=None):
                                                        robot_verdict(rid, findings), prov))
 
 
-# -- plots ---------------------------------------------------------------------------------
-def unit(name):
-    """(factor, label) to show a parameter in readable units."""
-    if an.is_angle(name):
-        return 180 / math.pi, "deg"
-    if name.endswith("time_offset"):
-        return 1e3, "ms"
-    return 1e3, "mm"
+# -- plots: matplotlib in the reports' look (svg.py) ----------------------------------------
+PLOT_HEIGHT = 220  # px, a time plot's
 
 
-def param_svg(name, sr, findings, xlo, xhi):
-    k, lab = unit(name)
-    t, y, s, f = sr["t"], [v * k for v in sr["y"]], [v * k for v in sr["s"]], sr["scale"]
+def img(src, height, alt):
+    return f'<img src="{e(src)}" width="{svg.WIDTH}" height="{height}" alt="{e(alt)}">'
+
+
+def time_span(xlo, xhi):
+    """The time axis of a robot's or the fleet's plots: its recordings' days with a margin."""
+    pad = 0.03 * (xhi - xlo + 1)
+    return xlo - pad, xhi + pad
+
+
+def line_handle(color, label, **style):
+    from matplotlib.lines import Line2D
+    return Line2D([], [], color=color, label=label, **style)
+
+
+def patch_handle(color, label, alpha=1.0):
+    from matplotlib.patches import Patch
+    return Patch(facecolor=color, alpha=alpha, label=label)
+
+
+def model_fit(sr, k):
+    """The model the tests chose, at each calibration's time, times k."""
+    t = sr["t"]
     model = sr.get("model", "constant")
     if model == "drift":
         dr = sr["drift"]
-        fit = [(dr["a"] + dr["slope"] * (ti - dr["tw"])) * k for ti in t]
-    elif model == "step":
+        return [(dr["a"] + dr["slope"] * (ti - dr["tw"])) * k for ti in t]
+    if model == "step":
         st = sr["step"]
-        fit = [(st["before"] if i < st["k"] else st["after"]) * k for i in range(len(t))]
-    else:
-        m, _ = stats.weighted_mean(sr["y"], sr["s"])
-        fit = [m * k] * len(t)
+        return [(st["before"] if i < st["k"] else st["after"]) * k for i in range(len(t))]
+    m, _ = stats.weighted_mean(sr["y"], sr["s"])
+    return [m * k] * len(t)
+
+
+def param_svg(name, sr, findings, xlo, xhi):
+    """One parameter over time: each calibration with its one-sigma bar, the model the tests chose
+    (constant, drift or step) and its 2-sigma band, the step or where the drift shows."""
+    k, lab = an.param_unit(name)
+    t, y, s, f = sr["t"], [v * k for v in sr["y"]], [v * k for v in sr["s"]], sr["scale"]
+    model = sr.get("model", "constant")
+    fit = model_fit(sr, k)
     lo = [fi - 2 * f * si for fi, si in zip(fit, s)]
     hi = [fi + 2 * f * si for fi, si in zip(fit, s)]
-    p = Plot(title=f"{name} ({model}{'' if f == 1 else f', noise scale {f:.2f}'})", ylabel=lab,
-             xlo=xlo - 0.03 * (xhi - xlo + 1), xhi=xhi + 0.03 * (xhi - xlo + 1))
-    p.fit(t, lo + hi + [yi - si for yi, si in zip(y, s)] + [yi + si for yi, si in zip(y, s)])
+    fig, ax = svg.figure(PLOT_HEIGHT)
+    # a step's two sides apart: the model jumps between two recordings, not along a slope
+    cut = sr["step"]["k"] if model == "step" else len(t)
+    for a, b in ((0, cut), (cut, len(t))):
+        if b > a:
+            ax.fill_between(t[a:b], lo[a:b], hi[a:b], color="#9ecae1", alpha=0.35, linewidth=0)
+            ax.plot(t[a:b], fit[a:b], color="#08519c", linewidth=1.5)
+    band = "model's 2σ band" + ("" if f == 1 else f"\n(σ × noise scale {f:.2f})")
+    handles = [line_handle("#252525", "calibration ± 1σ", marker="o", markersize=4, linestyle="none"),
+               line_handle("#08519c", f"model: {model}", linewidth=1.5), patch_handle("#9ecae1", band, 0.35)]
     if model == "step":
-        i = sr["step"]["k"]
-        p.band(t[:i], lo[:i], hi[:i])
-        p.band(t[i:], lo[i:], hi[i:])
-        p.line(t[:i], fit[:i])
-        p.line(t[i:], fit[i:])
-        p.vline(0.5 * (t[i - 1] + t[i]), label="step")
-    else:
-        p.band(t, lo, hi)
-        p.line(t, fit)
+        ax.axvline(0.5 * (t[cut - 1] + t[cut]), color="#d62728", linestyle=(0, (4, 3)), linewidth=1.2)
+        handles.append(line_handle("#d62728", "step", linestyle=(0, (4, 3))))
     for fnd in findings:
         if fnd["kind"] == "drift" and fnd["subject"] == name:
-            p.vline(fnd["first_utime"] / an.DAY_US, color="#ff7f0e", label="drift shows")
-    titles = [f"{an.date(r.utime)}: {yi:.5g} ± {si:.2g} {lab}" for r, yi, si in zip(sr["recs"], y, s)]
-    p.points(t, y, s, titles=titles)
-    return p.render()
+            ax.axvline(fnd["first_utime"] / an.DAY_US, color="#ff7f0e", linestyle=(0, (4, 3)), linewidth=1.2)
+            handles.append(line_handle("#ff7f0e", "drift significant\nfrom here", linestyle=(0, (4, 3))))
+    ax.errorbar(t, y, yerr=s, fmt="none", ecolor="#252525", elinewidth=1)
+    tips = {}
+    for i, (r, ti, yi, si) in enumerate(zip(sr["recs"], t, y, s)):
+        ax.plot([ti], [yi], "o", color="#252525", markersize=5, gid=f"point{i}")
+        tips[f"point{i}"] = f"{an.date(r.utime)}: {yi:.5g} ± {si:.2g} {lab}"
+    svg.title(ax, name)
+    svg.value_axis(ax, *svg.padded(lo + hi + [yi - si for yi, si in zip(y, s)] + [yi + si for yi, si in zip(y, s)]),
+                   lab)
+    svg.date_axis(ax, *time_span(xlo, xhi))
+    svg.legend(ax, handles)
+    return svg.to_svg(fig, tips)
 
 
 def effect_svg(key, recs, xlo, xhi):
+    """One effect of the diagnosis over time: its size ± 1 sigma where it was found, a hollow
+    circle on the zero line where the recording was diagnosed without it."""
     ds = [r for r in recs if r.diag_exit == 0 and r.day is not None]
-    name = key.split(":")[0]
-    param = an.EFFECT_SIZE_PARAM.get(name)
+    param = an.EFFECT_SIZE_PARAM.get(key.split(":")[0])
     xs, ys, es = [], [], []
     for r in ds:
         if key in r.effects:
@@ -339,126 +368,117 @@ def effect_svg(key, recs, xlo, xhi):
             pp = param if param in v else sorted(v)[0]
             xs.append(r.day)
             ys.append(v[pp][0])
-            es.append(v[pp][1])
-    scale, lab = (1e3, "ms") if (param or "").endswith("_s") else (1.0, param or "")
-    p = Plot(title=f"{key}: size when found (hollow: not found)", ylabel=lab,
-             xlo=xlo - 0.03 * (xhi - xlo + 1), xhi=xhi + 0.03 * (xhi - xlo + 1))
-    yv = [v * scale for v in ys]
-    p.fit([r.day for r in ds], yv + [0.0] + [v + (er or 0) * scale for v, er in zip(yv, es)])
-    p.hline(0.0)
-    p.points(xs, yv, [(er or 0) * scale for er in es], color="#6a3d9a")
-    for r in ds:
-        if key not in r.effects:
-            p.raw(f'<circle cx="{p.X(r.day):.1f}" cy="{p.Y(0.0):.1f}" r="2.6" fill="white" stroke="#6a3d9a"/>')
-    return p.render()
+            es.append(v[pp][1] or 0.0)
+    k, lab = an.effect_unit(param or "")
+    yv, ev = [v * k for v in ys], [er * k for er in es]
+    missing = [r.day for r in ds if key not in r.effects]
+    fig, ax = svg.figure(PLOT_HEIGHT)
+    ax.axhline(0.0, color="#888", linestyle=(0, (2, 3)), linewidth=1)
+    handles = []
+    if xs:
+        ax.errorbar(xs, yv, yerr=ev, fmt="o", color="#6a3d9a", markersize=5, elinewidth=1)
+        handles.append(line_handle("#6a3d9a", "found: size ± 1σ", marker="o", markersize=5, linestyle="none"))
+    if missing:
+        ax.plot(missing, [0.0] * len(missing), "o", markerfacecolor="white", markeredgecolor="#6a3d9a", markersize=5)
+        handles.append(line_handle("#6a3d9a", "not found\n(drawn at 0)", marker="o", markerfacecolor="white",
+                                   markersize=5, linestyle="none"))
+    svg.title(ax, f"{key}: its size when the diagnosis finds it")
+    svg.value_axis(ax, *svg.padded(yv + [0.0] + [v + er for v, er in zip(yv, ev)] + [v - er for v, er in zip(yv, ev)]),
+                   lab if not param or lab != param else f"{param} (as the diagnosis gives it)")
+    svg.date_axis(ax, *time_span(xlo, xhi))
+    svg.legend(ax, handles)
+    return svg.to_svg(fig)
+
+
+EVIDENCE_COLORS = {"drift": "#ff7f0e", "step": "#d62728", "none": "#636363"}
 
 
 def evidence_svg(robots, result):
     """Per robot, in the order of the table and named on the axis, the strongest evidence of a
     change: -log10 of the smallest adjusted p-value of its drift and step tests, against the
-    threshold -log10(alpha). A bar chart with names: matplotlib's (Debian python3-matplotlib),
-    in the reports' look and with their tick rule on the value axis (svg.ticks)."""
+    threshold -log10(alpha). A bar chart with names, its value axis with the reports' ticks."""
     ids = list(robots)
-    vals, colors = [], []
+    vals, kinds = [], []
     for rid in ids:
-        best, kind = 1.0, "constant"
+        best, kind = 1.0, "none"
         for name, sr in result["series"].get(rid, {}).items():
             for k in ("drift", "step"):
                 t = sr.get(k)
                 if t and t["p_adj"] < best:
                     best, kind = t["p_adj"], k
         vals.append(min(12.0, -math.log10(max(best, 1e-300))))
-        colors.append({"drift": "#ff7f0e", "step": "#d62728"}.get(kind, "#636363")
-                      if best <= result["alpha"] else "#636363")
+        kinds.append(kind if best <= result["alpha"] else "none")
     thr = -math.log10(result["alpha"])
-    fig, ax = mpl_axes(width=640, height=evidence_height(ids))
-    ax.bar(range(len(ids)), vals, width=0.7, color=colors)
+    fig, ax = svg.figure(evidence_height(ids), bottom=evidence_height(ids) - 150)
+    ax.bar(range(len(ids)), vals, width=0.7, color=[EVIDENCE_COLORS[k] for k in kinds])
     ax.set_xlim(-0.6, max(len(ids), 1) - 0.4)
     ax.set_xticks(range(len(ids)))
-    ax.set_xticklabels(ids, rotation=90, fontsize=min(12, max(6, 560 // max(len(ids), 1))))
+    ax.set_xticklabels(ids, rotation=90, fontsize=min(12, max(6, 700 // max(len(ids), 1))))
     ax.set_xlabel("robot, in the order of the table", fontsize=12)
     ax.axhline(thr, color="#d62728", linestyle=(0, (5, 3)), linewidth=1)
-    ax.text(0.99, thr + 0.3, f"alarm threshold (alpha {result['alpha']:g})", color="#d62728", fontsize=10,
-            ha="right", transform=ax.get_yaxis_transform())
-    mpl_value_axis(ax, 0, 13, "-log10 adjusted p")
-    ax.set_title("strongest evidence of a change per robot", loc="left", fontsize=13)
-    return mpl_svg(fig)
+    names = {"drift": "a drift", "step": "a step", "none": "no significant\nchange"}
+    handles = [patch_handle(EVIDENCE_COLORS[k], names[k]) for k in ("drift", "step", "none") if k in kinds]
+    handles.append(line_handle("#d62728", f"alarm threshold\n(alpha {result['alpha']:g})", linestyle=(0, (5, 3))))
+    svg.value_axis(ax, 0, 13, "-log10 adjusted p")
+    svg.title(ax, "strongest evidence of a change per robot")
+    svg.legend(ax, handles)
+    return svg.to_svg(fig)
 
 
 def evidence_height(ids):
-    """The evidence chart's height in px: room for the longest name, written upwards."""
-    return 170 + 7 * max((len(r) for r in ids), default=0)
-
-
-def mpl_axes(width, height):
-    """A matplotlib figure of width x height px with one axes, in the reports' look (svg.py's
-    docstring): sans-serif 12 px, a dark frame, the title above it."""
-    import matplotlib
-    from matplotlib.figure import Figure
-    matplotlib.rcParams["svg.hashsalt"] = "agvcal"
-    matplotlib.rcParams["font.family"] = "sans-serif"
-    matplotlib.rcParams["svg.fonttype"] = "none"  # text as text: names a page can search
-    fig = Figure(figsize=(width / 72, height / 72), dpi=72)  # 1 pt = 1 px: font sizes as the reports' px
-    ax = fig.add_subplot()
-    for side in ax.spines.values():
-        side.set_color("#444")
-    ax.tick_params(colors="#222", labelsize=12)
-    return fig, ax
-
-
-def mpl_value_axis(ax, lo, hi, label):
-    """The value axis with the reports' ticks (svg.ticks, the C++ reports' rule) and grid."""
-    marks = ticks(lo, hi)
-    ax.set_ylim(lo, hi)
-    ax.set_yticks([v for v, _ in marks])
-    ax.set_yticklabels([t for _, t in marks])
-    ax.yaxis.grid(True, color="#ddd")
-    ax.set_axisbelow(True)
-    ax.set_ylabel(label, fontsize=12)
-
-
-def mpl_svg(fig):
-    """The figure as SVG text, the same bytes for the same figure (no date, fixed ids)."""
-    import io
-    fig.tight_layout()
-    out = io.StringIO()
-    fig.savefig(out, format="svg", metadata={"Date": None})
-    return out.getvalue()
+    """The evidence chart's height in px: the frame, and room for the longest name written
+    upwards with the axis's label under it."""
+    return 150 + 45 + 8 * max((len(r) for r in ids), default=0)
 
 
 def timeline_height(n):
-    return 40 + 14 * n
+    return svg.TOP + svg.BOTTOM + max(110, 18 * n)
 
 
 def timeline_svg(robots, attention, by_robot, xlo, xhi):
     """One row per robot that needs attention: its recordings (grey ok, red failed, purple
-    with an effect), steps (red bar), drifts shown from (orange bar)."""
-    h = timeline_height(len(attention))
-    p = Plot(height=h, title="recordings of the robots that need attention", xlo=xlo - 1, xhi=xhi + 1,
-             ylo=len(attention) + 0.2, yhi=-1.2)
-    p.ml = 90
-    # y grows downwards here: rows 0..n-1 from the top (ylo > yhi)
+    with an effect), steps (red bar), drifts from where they show (orange bar)."""
+    fig, ax = svg.figure(timeline_height(len(attention)))
+    lo, hi = xlo - 1, xhi + 1
+    colors = {"ok": "#969696", "failed": "#d62728", "effect": "#6a3d9a"}
+    seen, tips = set(), {}
     for i, rid in enumerate(attention):
-        y = i
-        p.raw(f'<line x1="{p.X(xlo - 1):.1f}" y1="{p.Y(y):.1f}" x2="{p.X(xhi + 1):.1f}" y2="{p.Y(y):.1f}" stroke="#eee"/>')
         for r in robots[rid]["recordings"]:
             if r.day is None:
                 continue
-            col = "#d62728" if (r.solve_exit != 0 or r.diag_exit != 0) else ("#6a3d9a" if r.effects else "#969696")
-            p.raw(f'<circle cx="{p.X(r.day):.1f}" cy="{p.Y(y):.1f}" r="3" fill="{col}"/>')
-        for f in by_robot[rid]:
+            kind = "failed" if (r.solve_exit != 0 or r.diag_exit != 0) else ("effect" if r.effects else "ok")
+            seen.add(kind)
+            ax.plot([r.day], [i], "o", color=colors[kind], markersize=6)
+        for j, f in enumerate(by_robot[rid]):
+            gid = f"finding{i}_{j}"
             if f["kind"] == "step" and f["change_utime"]:
-                x = p.X(f["change_utime"] / an.DAY_US)
-                p.raw(f'<rect x="{x - 2:.1f}" y="{p.Y(y) - 6:.1f}" width="4" height="12" fill="#d62728"><title>'
-                      f'{html.escape(f["why"])}</title></rect>')
+                ax.plot([f["change_utime"] / an.DAY_US], [i], marker="|", markersize=16, markeredgewidth=4,
+                        color="#d62728", gid=gid)
+                seen.add("step")
+                tips[gid] = f["why"]
             if f["kind"] == "drift" and f["first_utime"]:
-                x = p.X(f["first_utime"] / an.DAY_US)
-                p.raw(f'<rect x="{x:.1f}" y="{p.Y(y) - 2:.1f}" width="{max(1.0, p.X(xhi + 1) - x):.1f}" height="4" '
-                      f'fill="#ff7f0e" fill-opacity="0.6"><title>{html.escape(f["why"])}</title></rect>')
-    svg = p.render(yticks=False)
-    labels = "".join(f'<text x="{p.ml - 4}" y="{p.Y(i) + 3.5:.1f}" font-size="10" text-anchor="end">{html.escape(rid)}</text>'
-                     for i, rid in enumerate(attention))
-    return svg.replace("</svg>", labels + "</svg>")
+                ax.plot([f["first_utime"] / an.DAY_US, hi], [i, i], color="#ff7f0e", alpha=0.6, linewidth=4,
+                        solid_capstyle="butt", gid=gid)
+                seen.add("drift")
+                tips[gid] = f["why"]
+    ax.set_ylim(len(attention) - 0.5, -0.5)  # the first robot on top, as in the table
+    ax.set_yticks(range(len(attention)))
+    ax.set_yticklabels(attention, fontsize=10)
+    ax.yaxis.grid(True, color="#eee")
+    ax.set_axisbelow(True)
+    names = {"ok": "recording", "failed": "failed recording", "effect": "recording with\nan effect",
+             "step": "step", "drift": "drift significant\nfrom here on"}
+    handles = [line_handle(colors[k], names[k], marker="o", markersize=6, linestyle="none")
+               for k in ("ok", "failed", "effect") if k in seen]
+    if "step" in seen:
+        handles.append(line_handle("#d62728", names["step"], marker="|", markersize=12, markeredgewidth=3,
+                                   linestyle="none"))
+    if "drift" in seen:
+        handles.append(line_handle("#ff7f0e", names["drift"], alpha=0.6, linewidth=4))
+    svg.title(ax, "recordings of the robots that need attention")
+    svg.date_axis(ax, lo, hi)
+    svg.legend(ax, handles)
+    return svg.to_svg(fig, tips)
 
 
 def fleet_effect_svg(robots, f, xlo, xhi):
@@ -473,16 +493,13 @@ def fleet_effect_svg(robots, f, xlo, xhi):
                 weeks[w] = (n + 1, k + (key in r.effects))
     xs = sorted(weeks)
     share = [100.0 * weeks[w][1] / weeks[w][0] for w in xs]
-    # A bar chart: matplotlib's, with the fleet's date ticks (svg.date_ticks) and the reports' value ticks.
-    fig, ax = mpl_axes(width=640, height=200)
+    fig, ax = svg.figure(PLOT_HEIGHT)
     ax.bar(xs, share, width=6.6, align="edge", color="#6a3d9a", alpha=0.75)
-    ax.set_xlim(xlo - 3, xhi + 4)
-    marks = date_ticks(xlo - 3, xhi + 4)
-    ax.set_xticks([x for x, _ in marks])
-    ax.set_xticklabels([t for _, t in marks])
     onset = f["first_utime"] / an.DAY_US
     ax.axvline(onset, color="#d62728", linestyle=(0, (4, 3)), linewidth=1.2)
-    ax.text(onset, 0.97, " appears", color="#d62728", fontsize=10, va="top", transform=ax.get_xaxis_transform())
-    mpl_value_axis(ax, 0, max(share + [10]) * 1.1, "% of the week's recordings")
-    ax.set_title(f"{key}: share of the week's recordings in which it is found", loc="left", fontsize=13)
-    return mpl_svg(fig)
+    svg.value_axis(ax, 0, max(share + [10]) * 1.1, "% of the week's recordings")
+    svg.date_axis(ax, xlo - 3, xhi + 4)
+    svg.title(ax, f"{key}: share of the week's recordings in which it is found")
+    svg.legend(ax, [patch_handle("#6a3d9a", "share, per week", 0.75),
+                    line_handle("#d62728", "first found", linestyle=(0, (4, 3)))])
+    return svg.to_svg(fig)

@@ -1,11 +1,17 @@
-"""Small SVG plots, written by hand (no plotting library): a time axis in dates, a value
-axis with round ticks, points with error bars, bands, lines, markers. The look and the tick
-rule are the C++ reports' (libcalib/src/io/svg_plot.cc): sans-serif 12 px, a dark frame,
-grey grid lines at the value ticks, tick marks below, the title above the frame, the value
-axis's label turned along it; only the time axis differs (dates: month starts or weeks)."""
+"""The fleet report's plots: matplotlib figures (Debian python3-matplotlib) in the C++ reports'
+look (libcalib/src/io/svg_plot.cc): sans-serif 12 px, a dark frame, grey grid lines at the value
+ticks, the title above the frame on the left, the legend beside the frame on the right, the unit
+along each axis. The value axis takes the reports' tick rule (`ticks`, the C++ SvgTicks'); the
+time axis is the fleet's own, in dates (`date_ticks`). The SVG keeps its text as text and is
+the same bytes for the same figure."""
 import datetime
 import html
+import io
 import math
+
+WIDTH = 900  # px, the C++ reports' plots' width
+# The frame's margins in px, the C++ reports' (svg_plot.cc): every plot of a page lines up.
+LEFT, RIGHT, TOP, BOTTOM = 80, 170, 30, 45
 
 
 def ticks(lo, hi):
@@ -34,111 +40,8 @@ def ticks(lo, hi):
     return out
 
 
-class Plot:
-    """A plot of value against time (days since 1970, floats)."""
-
-    def __init__(self, width=640, height=200, title="", ylabel="", xlo=None, xhi=None, ylo=None, yhi=None):
-        self.w, self.h = width, height
-        self.ml, self.mr, self.mt, self.mb = 80, 12, 22, 26
-        self.title, self.ylabel = title, ylabel
-        self.xlo, self.xhi, self.ylo, self.yhi = xlo, xhi, ylo, yhi
-        self.items = []
-
-    # -- scales -------------------------------------------------------------------------
-    def fit(self, xs, ys, pad=0.08):
-        xs = [x for x in xs if x is not None and math.isfinite(x)]
-        ys = [y for y in ys if y is not None and math.isfinite(y)]
-        if xs:
-            lo, hi = min(xs), max(xs)
-            if hi - lo < 1:
-                lo, hi = lo - 0.5, hi + 0.5
-            span = hi - lo
-            self.xlo = lo - pad * span / 2 if self.xlo is None else self.xlo
-            self.xhi = hi + pad * span / 2 if self.xhi is None else self.xhi
-        if ys:
-            lo, hi = min(ys), max(ys)
-            if hi - lo <= 1e-15 * max(1.0, abs(hi)):
-                lo, hi = lo - max(abs(lo) * 1e-3, 1e-9), hi + max(abs(hi) * 1e-3, 1e-9)
-            span = hi - lo
-            self.ylo = lo - pad * span if self.ylo is None else self.ylo
-            self.yhi = hi + pad * span if self.yhi is None else self.yhi
-
-    def X(self, x):
-        return self.ml + (x - self.xlo) / (self.xhi - self.xlo) * (self.w - self.ml - self.mr)
-
-    def Y(self, y):
-        return self.mt + (self.yhi - y) / (self.yhi - self.ylo) * (self.h - self.mt - self.mb)
-
-    # -- items --------------------------------------------------------------------------
-    def band(self, xs, lo, hi, color="#9ecae1", opacity=0.35):
-        pts = [(self.X(x), self.Y(y)) for x, y in zip(xs, hi)] + \
-              [(self.X(x), self.Y(y)) for x, y in reversed(list(zip(xs, lo)))]
-        self.items.append(f'<polygon points="{_pts(pts)}" fill="{color}" fill-opacity="{opacity}" stroke="none"/>')
-
-    def line(self, xs, ys, color="#08519c", width=1.5, dash=None):
-        pts = [(self.X(x), self.Y(y)) for x, y in zip(xs, ys) if y is not None and math.isfinite(y)]
-        d = f' stroke-dasharray="{dash}"' if dash else ""
-        self.items.append(f'<polyline points="{_pts(pts)}" fill="none" stroke="{color}" stroke-width="{width}"{d}/>')
-
-    def points(self, xs, ys, errs=None, color="#252525", r=2.6, titles=None):
-        for i, (x, y) in enumerate(zip(xs, ys)):
-            if y is None or not math.isfinite(y):
-                continue
-            cx, cy = self.X(x), self.Y(y)
-            if errs and errs[i] and math.isfinite(errs[i]):
-                y0, y1 = self.Y(y - errs[i]), self.Y(y + errs[i])
-                self.items.append(f'<line x1="{cx:.1f}" y1="{y0:.1f}" x2="{cx:.1f}" y2="{y1:.1f}" stroke="{color}" stroke-width="1"/>')
-            t = f"<title>{html.escape(titles[i])}</title>" if titles else ""
-            self.items.append(f'<circle cx="{cx:.1f}" cy="{cy:.1f}" r="{r}" fill="{color}">{t}</circle>')
-
-    def vline(self, x, color="#d62728", label="", dash="4 3"):
-        px = self.X(x)
-        self.items.append(f'<line x1="{px:.1f}" y1="{self.mt}" x2="{px:.1f}" y2="{self.h - self.mb}" '
-                          f'stroke="{color}" stroke-width="1.2" stroke-dasharray="{dash}"/>')
-        if label:
-            anchor = "end" if px > self.w * 0.7 else "start"
-            dx = -3 if anchor == "end" else 3
-            self.items.append(f'<text x="{px + dx:.1f}" y="{self.mt + 10}" font-size="10" fill="{color}" '
-                              f'text-anchor="{anchor}">{html.escape(label)}</text>')
-
-    def hline(self, y, color="#888", dash="2 3"):
-        py = self.Y(y)
-        self.items.append(f'<line x1="{self.ml}" y1="{py:.1f}" x2="{self.w - self.mr}" y2="{py:.1f}" '
-                          f'stroke="{color}" stroke-width="1" stroke-dasharray="{dash}"/>')
-
-    def raw(self, s):
-        self.items.append(s)
-
-    # -- output -------------------------------------------------------------------------
-    def render(self, xdates=True, yticks=True):
-        if self.xlo is None:
-            self.fit([0, 1], [0, 1])
-        w, h, ml, mr, mt, mb = self.w, self.h, self.ml, self.mr, self.mt, self.mb
-        out = [f'<svg xmlns="http://www.w3.org/2000/svg" width="{w}" height="{h}" viewBox="0 0 {w} {h}" '
-               f'font-family="sans-serif" font-size="12">',
-               '<rect width="100%" height="100%" fill="white"/>',
-               f'<clipPath id="c"><rect x="{ml}" y="{mt}" width="{w - ml - mr}" height="{h - mt - mb}"/></clipPath>']
-        if self.title:
-            out.append(f'<text x="{ml}" y="{mt - 6}" font-size="13">{html.escape(self.title)}</text>')
-        out.append(f'<rect x="{ml}" y="{mt}" width="{w - ml - mr}" height="{h - mt - mb}" fill="none" stroke="#444"/>')
-        for x, label in date_ticks(self.xlo, self.xhi) if xdates else ticks(self.xlo, self.xhi):
-            px = self.X(x)
-            out.append(f'<line x1="{px:.1f}" x2="{px:.1f}" y1="{h - mb}" y2="{h - mb + 4}" stroke="#444"/>'
-                       f'<text x="{px:.1f}" y="{h - mb + 16}" text-anchor="middle">{label}</text>')
-        for v, label in ticks(self.ylo, self.yhi) if yticks else []:
-            py = self.Y(v)
-            out.append(f'<line x1="{ml - 4}" x2="{w - mr}" y1="{py:.1f}" y2="{py:.1f}" stroke="#ddd"/>'
-                       f'<text x="{ml - 6}" y="{py + 4:.1f}" text-anchor="end">{label}</text>')
-        if self.ylabel:
-            out.append(f'<text transform="translate(16,{(mt + h - mb) / 2:.1f}) rotate(-90)" '
-                       f'text-anchor="middle">{html.escape(self.ylabel)}</text>')
-        out.append('<g clip-path="url(#c)">' + "".join(self.items) + "</g>")
-        out.append("</svg>")
-        return "\n".join(out)
-
-
 def date_ticks(lo, hi):
-    """Ticks at month starts, or weeks for short spans: [(day, label)]."""
+    """Ticks at month starts, or weeks for short spans: [(day, label)] (days since 1970)."""
     d0 = datetime.date(1970, 1, 1)
     span = hi - lo
     out = []
@@ -169,5 +72,77 @@ def date_ticks(lo, hi):
     return out
 
 
-def _pts(pts):
-    return " ".join(f"{x:.1f},{y:.1f}" for x, y in pts)
+def figure(height, width=WIDTH, bottom=BOTTOM, legend=True):
+    """A figure of width x height px with one axes in the reports' frame: fixed margins, so that
+    the plots of a page share their time axis's pixels; the right margin holds the legend."""
+    import matplotlib
+    from matplotlib.figure import Figure
+    matplotlib.rcParams["svg.hashsalt"] = "agvcal"  # fixed ids: the same bytes for the same figure
+    matplotlib.rcParams["font.family"] = "sans-serif"
+    matplotlib.rcParams["svg.fonttype"] = "none"  # text as text: names a page can search
+    fig = Figure(figsize=(width / 72, height / 72), dpi=72)  # 1 pt = 1 px: font sizes as the reports' px
+    fig.subplots_adjust(left=LEFT / width, right=1 - (RIGHT if legend else 12) / width,
+                        top=1 - TOP / height, bottom=bottom / height)
+    ax = fig.add_subplot()
+    for side in ax.spines.values():
+        side.set_color("#444")
+    ax.tick_params(colors="#222", labelsize=12)
+    return fig, ax
+
+
+def title(ax, text):
+    ax.set_title(text, loc="left", fontsize=13)
+
+
+def value_axis(ax, lo, hi, label):
+    """The value axis over [lo, hi] with the reports' ticks and grid, its label the unit."""
+    marks = ticks(lo, hi)
+    ax.set_ylim(lo, hi)
+    ax.set_yticks([v for v, _ in marks])
+    ax.set_yticklabels([t for _, t in marks])
+    ax.yaxis.grid(True, color="#ddd")
+    ax.set_axisbelow(True)
+    ax.set_ylabel(label, fontsize=12)
+
+
+def padded(values, pad=0.08):
+    """[lo, hi] around the finite values with a margin (a flat series gets a small span)."""
+    vs = [v for v in values if v is not None and math.isfinite(v)]
+    if not vs:
+        return 0.0, 1.0
+    lo, hi = min(vs), max(vs)
+    if hi - lo <= 1e-15 * max(1.0, abs(hi)):
+        lo, hi = lo - max(abs(lo) * 1e-3, 1e-9), hi + max(abs(hi) * 1e-3, 1e-9)
+    return lo - pad * (hi - lo), hi + pad * (hi - lo)
+
+
+def date_axis(ax, lo, hi):
+    """The time axis over [lo, hi] (days since 1970) with date ticks, its label the unit: the
+    date in UTC, and the year where the labels leave it out."""
+    marks = date_ticks(lo, hi)
+    ax.set_xlim(lo, hi)
+    ax.set_xticks([x for x, _ in marks])
+    ax.set_xticklabels([t for _, t in marks])
+    label = "date (UTC)"
+    years = sorted({(datetime.date(1970, 1, 1) + datetime.timedelta(days=math.floor(x))).year for x in (lo, hi)})
+    if marks and len(marks[0][1]) == 5:  # month-day labels
+        label = f"date in {'–'.join(str(y) for y in years)} (UTC, month-day)"
+    ax.set_xlabel(label, fontsize=12)
+
+
+def legend(ax, handles):
+    """The legend beside the frame, on the right (as the C++ reports'), naming only what is drawn."""
+    if handles:
+        ax.legend(handles=handles, loc="upper left", bbox_to_anchor=(1.01, 1.0), borderaxespad=0,
+                  frameon=False, fontsize=10, handlelength=1.6)
+
+
+def to_svg(fig, titles=None):
+    """The figure as SVG text, the same bytes for the same figure (no date, fixed ids). TITLES
+    maps an artist's gid to a tooltip, written as the <title> of its group."""
+    out = io.StringIO()
+    fig.savefig(out, format="svg", metadata={"Date": None})
+    text = out.getvalue()
+    for gid, tip in (titles or {}).items():
+        text = text.replace(f'<g id="{gid}">', f'<g id="{gid}">\n<title>{html.escape(tip)}</title>', 1)
+    return text

@@ -210,6 +210,59 @@ check(stp["detail"]["change_index"] == 5 and stp["first_sha256"] == "101-5", "th
 dr = next(f for f in res["findings"] if f["kind"] == "drift")
 check(abs(dr["size"] - 0.036) < 3 * dr["size_std"], f"the drift's size over the span ({dr['size']:.4f} ± {dr['size_std']:.4f}, true 0.036)")
 
+
+# -- the report's plots: one stack (matplotlib), legends of what is drawn, units, same bytes ----
+class NoRuns:
+    def query_dicts(self, sql):
+        return []
+
+
+def plots_of(folder):
+    return {os.path.relpath(os.path.join(d, f), folder): open(os.path.join(d, f), encoding="utf-8").read()
+            for d, _, files in os.walk(folder) for f in files if f.endswith(".svg")}
+
+
+small = fake_fleet(8, random.Random(5), drift=(2, 1), step=(5, 3))
+for k, r in enumerate(small["r006"]["recordings"]):
+    if k >= 5:
+        r.effects = {"time_offset": {"offset_s": (0.0025, 0.0002)}}
+res = an.analyze(small)
+written = []
+for run in range(2):
+    out = tmpdir()
+    report.write(out, small, res, NoRuns())
+    written.append(plots_of(out))
+plots = written[0]
+import xml.etree.ElementTree as ET  # noqa: E402
+check(len(plots) >= 8 * 6 + 3 and all("Matplotlib v" in t for t in plots.values()),
+      f"all {len(plots)} plots of a report drawn with matplotlib", str([n for n, t in plots.items() if "Matplotlib v" not in t]))
+check(all(ET.fromstring(t.encode()) is not None for t in plots.values()), "every plot well-formed XML")
+check(written[0] == written[1], "the same fleet, the same plots, byte for byte",
+      str([n for n in written[0] if written[0][n] != written[1].get(n)][:3]))
+
+
+def plot_texts(name):
+    return " ".join(re.findall(r"<text[^>]*>([^<]*)</text>", plots[name]))
+
+
+stepped, drifted, steady = plot_texts("robots/r005_p3.svg"), plot_texts("robots/r002_p1.svg"), plot_texts("robots/r000_p0.svg")
+check("step" in stepped and "model: step" in stepped and "drift" not in stepped,
+      "a stepping parameter's legend names the step model and the step line", stepped)
+check("model: drift" in drifted and "drift significant" in drifted, "a drifting one's the drift model and where it shows",
+      drifted)
+check("model: constant" in steady and "step" not in steady and "drift" not in steady,
+      "a constant one's legend names only what is drawn", steady)
+check(all(u in t for t in (stepped, drifted, steady) for u in ("mm", "date", "UTC")),
+      "the trend plots' axes carry their units (mm, the date in UTC)", steady)
+check(re.search(r"<title>\d{4}-\d\d-\d\d: [-\d.]+ ± [\d.e-]+ mm</title>", plots["robots/r000_p0.svg"]) is not None,
+      "each calibration's date and value as its tooltip")
+effect = plot_texts("robots/r006_e0.svg")
+check("ms" in effect and "found: size" in effect and "not found" in effect, "the effect's plot: ms, found and not found",
+      effect)
+timeline = plot_texts("timeline.svg")
+check(all(w in timeline for w in ("r002", "r005", "r006", "step", "drift significant", "with", "UTC")),
+      "the timeline names the robots, the step, the drift and the recordings with an effect", timeline)
+
 # -- fleet.yaml ----------------------------------------------------------------------------
 tmp = tmpdir()
 robot = os.path.join(os.path.dirname(os.path.abspath(__file__)), "..", "..", "config", "robots", "diff_robot.yaml")

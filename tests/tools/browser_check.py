@@ -1,11 +1,13 @@
 #!/usr/bin/env python3
-"""Renders report pages (index.html of `agvcal diagnose|solve|ground|recal --report DIR`) in headless
-Chromium at 1024 px and fails on what a reader would see broken: a page wider than the window
+"""Renders report pages (index.html of `agvcal diagnose|solve|ground|recal --report DIR`, and the pages
+of `agvcal-fleet report --out DIR`) in headless Chromium at 1024 px and fails on what a reader would see broken: a page wider than the window
 (document.documentElement.scrollWidth > 1024) or an image that does not load (naturalWidth 0).
 Without a browser too: each page opens with a verdict sentence and its provenance and shows no
 internal notes of the diagnosis (content_problems).
 With --screenshots OUT it also writes OUT/<name>.png of each page's top at 1024 px.
-Usage: browser_check.py [--screenshots OUT] NAME=DIR...
+Usage: browser_check.py [--screenshots OUT] NAME=PATH...
+PATH is a report folder (its index.html) or one page (a .html file). A NAME that starts with
+"fleet" is an agvcal-fleet page: its provenance names the database instead of a recording.
 Exit status: 0 every page fine; 1 a page is broken; 77 no Chromium (the test is skipped)."""
 import json
 import os
@@ -75,13 +77,22 @@ def run(browser, args, profile):
     return subprocess.run(cmd, capture_output=True, text=True, timeout=120)
 
 
-def check(browser, name, folder, profile):
+def page_of(path):
+    """A report folder's index.html, or the page itself."""
+    return path if path.endswith(".html") else os.path.join(path, "index.html")
+
+
+def provenance_keys(name):
+    return FLEET_PROVENANCE_KEYS if name.startswith("fleet") else PROVENANCE_KEYS
+
+
+def check(browser, name, path, profile):
     """The page's measurements, or a list of problems."""
-    page = os.path.join(folder, "index.html")
+    page = page_of(path)
     if not os.path.exists(page):
         return [f"{name}: {page} missing"]
     html = open(page, encoding="utf-8").read()
-    probe = os.path.join(folder, ".browser-check.html")
+    probe = os.path.join(os.path.dirname(page), ".browser-check.html")
     with open(probe, "w", encoding="utf-8") as f:
         f.write(html.replace("</body>", CHECK + "</body>"))
     try:
@@ -104,9 +115,9 @@ def check(browser, name, folder, profile):
     return problems
 
 
-def screenshot(browser, name, folder, out, profile):
+def screenshot(browser, name, path, out, profile):
     png = os.path.join(out, name + ".png")
-    page = "file://" + os.path.abspath(os.path.join(folder, "index.html"))
+    page = "file://" + os.path.abspath(page_of(path))
     r = run(browser, [f"--window-size={WIDTH},1300", "--screenshot=" + os.path.abspath(png), page], profile)
     if r.returncode != 0 or not os.path.exists(png):
         return [f"{name}: no screenshot (exit {r.returncode}): {r.stderr.strip()[-300:]}"]
@@ -124,10 +135,10 @@ def main(argv):
         print(__doc__, file=sys.stderr)
         return 2
     problems = []
-    for name, folder in pages:
-        page = os.path.join(folder, "index.html")
+    for name, path in pages:
+        page = page_of(path)
         if os.path.exists(page):
-            problems += content_problems(name, open(page, encoding="utf-8").read())
+            problems += content_problems(name, open(page, encoding="utf-8").read(), provenance_keys(name))
     browser = chromium()
     if not browser:
         if problems:

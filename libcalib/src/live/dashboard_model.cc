@@ -5,6 +5,8 @@
 #include <vector>
 
 #include "calib/core/units.h"
+#include "calib/io/messages.h"
+#include "calib/io/process_names.h"
 
 namespace calib {
 
@@ -67,6 +69,9 @@ void DashboardModel::OnMessage(const std::string& channel, const std::string& ty
 }
 
 void DashboardModel::OnHeartbeat(const agvcal::heartbeat_t& beat, int64_t now_us) {
+  // The group's recording marks come from a short-lived agvcal-recording per waiting process:
+  // shown as a process, the group would read as restarted at the start and stale all run long.
+  if (beat.process == kGroupMarkProcess) return;
   // A new run (the dashboard left running across two groups): a beat after every known process
   // went stale, or a new pid of a process whose last beat said it had stopped, starts afresh,
   // so the old run's values go and the new pids are not counted as restarts.
@@ -153,6 +158,8 @@ void DashboardModel::OnCommanderStatus(const agvcal::commander_status_t& status,
 
 std::vector<ChannelView> DashboardModel::Channels(int64_t now_us) const {
   std::vector<ChannelView> out;
+  const auto solver = processes_.find(kSolverProcess);
+  const bool solver_alive = solver != processes_.end() && !Stale(solver->second.last_arrival, now_us);
   for (const auto& [name, c] : channels_) {
     ChannelView v;
     v.name = name;
@@ -160,7 +167,10 @@ std::vector<ChannelView> DashboardModel::Channels(int64_t now_us) const {
     v.count = c.count;
     v.undecodable = c.undecodable;
     v.age_s = Seconds(now_us - c.last_arrival);
-    v.stale = Stale(c.last_arrival, now_us);
+    // The solver's channels come once per solve, seconds apart (every N motions): fresh while
+    // the solver beats, so that a working solver's estimate does not read stale between solves.
+    const bool per_solve = name == kCalibEstimateChannel || name == kCalibResidualsChannel;
+    v.stale = Stale(c.last_arrival, now_us) && !(per_solve && solver_alive);
     if (!v.stale) {
       v.rate_hz = Rate(c.arrivals);
       v.data_rate_hz = MedianRate(c.utimes);

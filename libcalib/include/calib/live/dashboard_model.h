@@ -36,7 +36,8 @@
 namespace calib {
 
 struct DashboardOptions {
-  double stale_after_s = 3.0;       // a channel or process silent for longer is stale
+  double stale_after_s = 3.0;       // a channel or process silent for longer is stale (the
+                                    // solver's channels: only once the solver is too)
   double rate_window_s = 5.0;       // rates are measured over the arrivals of this window
   std::size_t residual_history = 4000;  // residuals kept (per component)
   std::size_t estimate_history = 500;   // estimates kept per parameter
