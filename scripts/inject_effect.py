@@ -11,10 +11,11 @@ real-data injection suite (scripts/mismatch_real_injection.py, docs/mismatch-rea
 The recorded wheel stream is taken as the truth the effect acts on; the new readings are those
 an encoder shows when the effect is present:
 - slip: each wheel's positions p' solve p'_j - S*R*v'_j^2/2 = p_j at every sample, v' the
-  diagnosis's speeds (central differences over about +-50 ms, wider for readings that stray from
-  a smooth motion: diagnose_fit.cc SpeedHalfWidth) of p' itself, R the wheel's radius (the model's: give the calibrated one); the model's distance lost
-  over any two samples is then the injected one to rounding. Solved by Newton: the equations of
-  samples j, j+-k form one tridiagonal chain per residue of j mod k.
+  diagnosis's speeds of p' itself (diagnose_fit.cc ChooseSpeedWindow: central differences over
+  about +-50 ms; the least-squares slope over a wider window where the readings step unevenly),
+  R the wheel's radius (the model's: give the calibrated one); the model's distance lost over any
+  two samples is then the injected one to rounding. Solved by Newton (the Jacobian is banded
+  within the window); the window comes from the injected readings, solved again until it settles.
 - eccentricity: ROLE's angle phi' solves phi' + A*(sin(phi' - P) + sin P) = phi (A < 1).
 - backlash: ROLE's steering reading gets + sign*W/2, sign the direction of the last steering motion
   by the diagnosis's rule (2 mrad hysteresis) on the readings written.
@@ -31,8 +32,9 @@ from shift_scan_stamps import channel_events  # noqa: E402
 from wheel_log import wheel_fields  # noqa: E402
 
 STEER_HYSTERESIS = 0.002  # rad, diagnose_fit.cc MakeTrack
-SPEED_SPAN_S = 0.05       # least half-width of the diagnosis's central differences
-SPEED_ERROR = 0.1         # diagnose_fit.cc SpeedHalfWidth kSpeedError
+SPEED_SPAN_S = 0.05       # least half-width of the diagnosis's speed window
+SPEED_ERROR = 0.015       # diagnose_fit.cc ChooseSpeedWindow kSpeedError
+MAX_HALF_WIDTH_S = 0.5    # ... kMaxHalfWidthS
 
 
 class NotRealisable(Exception):
@@ -95,56 +97,85 @@ def step_irregularity(p, utimes):
     return displacement / math.sqrt(sum(x * x for x in steps) / len(steps)) if steps else 0.0
 
 
-def smoothing_k(utimes, wheels):
-    """The diagnosis's central-difference half-width in samples (diagnose_fit.cc SpeedHalfWidth)
-    for the wheel positions `wheels` (one list per wheel of the drive)."""
+def speed_window(utimes, wheels):
+    """The diagnosis's speed window (diagnose_fit.cc ChooseSpeedWindow) for the wheel positions
+    `wheels` (one list per wheel of the drive): (half-width k in samples, least-squares slope)."""
     n = len(utimes)
-    dt = (utimes[-1] - utimes[0]) * 1e-6 / (n - 1)
-    k = max(1, int(math.floor(SPEED_SPAN_S / max(dt, 1e-4) + 0.5)))
+    dt = max((utimes[-1] - utimes[0]) * 1e-6 / (n - 1), 1e-4)
+    cap = max(1, n // 8)
+    least = min(max(1, int(math.floor(SPEED_SPAN_S / dt + 0.5))), cap)
+    most = max(least, min(cap, int(MAX_HALF_WIDTH_S / dt)))
     irregularity = max([step_irregularity(p, utimes) for p in wheels] + [0.0])
-    needed = math.ceil(irregularity * math.sqrt(0.5) / SPEED_ERROR)
-    return min(max(k, needed), max(1, n // 8))
+    if most == least or irregularity * math.sqrt(0.5) / least <= SPEED_ERROR:
+        return least, False
+    k = least + 1
+    while k < most and irregularity / math.sqrt(k * (k + 1.0) * (2 * k + 1) / 3) > SPEED_ERROR:
+        k += 1
+    return min(k, most), True
 
 
-def solve_slip(g, utimes, slip, radius, k):
-    """p with p_j - slip*radius*v_j^2/2 = g_j, v the central differences of p over +-k samples
-    (module doc)."""
+def speed_weights(utimes, window):
+    """Per sample j, (first sample, weights): the diagnosis's speed v_j = sum of weight * p over the
+    window (diagnose_model.h WindowSlope)."""
+    k, least_squares = window
+    n = len(utimes)
+    rows = []
+    for j in range(n):
+        lo, hi = max(0, j - k), min(n - 1, j + k)
+        if not least_squares:
+            span = (utimes[hi] - utimes[lo]) * 1e-6
+            rows.append((lo, [-1 / span] + [0.0] * (hi - lo - 1) + [1 / span]))
+            continue
+        t = [(utimes[m] - utimes[j]) * 1e-6 for m in range(lo, hi + 1)]
+        mean = sum(t) / len(t)
+        d = [x - mean for x in t]
+        stt = sum(x * x for x in d)
+        rows.append((lo, [x / stt for x in d]))
+    return rows
+
+
+def solve_banded(rows, rhs, k):
+    """x with A x = rhs, A given as rows[i] = {column: value} within +-k of the diagonal (Gaussian
+    elimination without pivoting: the slip's Jacobian is the identity plus a small band)."""
+    n = len(rhs)
+    a = [dict(r) for r in rows]
+    b = list(rhs)
+    for c in range(n):
+        pivot = a[c].get(c, 0.0)
+        if not abs(pivot) > 1e-9:
+            raise NotRealisable("the slip's equations are singular on this recording")
+        for r in range(c + 1, min(n, c + k + 1)):
+            factor = a[r].get(c, 0.0) / pivot
+            if factor == 0.0:
+                continue
+            for col, value in a[c].items():
+                if col >= c:
+                    a[r][col] = a[r].get(col, 0.0) - factor * value
+            b[r] -= factor * b[c]
+    x = [0.0] * n
+    for i in range(n - 1, -1, -1):
+        x[i] = (b[i] - sum(value * x[col] for col, value in a[i].items() if col > i)) / a[i][i]
+    return x
+
+
+def solve_slip(g, utimes, slip, radius, window):
+    """p with p_j - slip*radius*v_j^2/2 = g_j, v the diagnosis's speeds of p over `window`
+    (module doc); Newton, its Jacobian banded within the window."""
     n = len(g)
-    lo = [max(0, j - k) for j in range(n)]
-    hi = [min(n - 1, j + k) for j in range(n)]
-    span = [(utimes[hi[j]] - utimes[lo[j]]) * 1e-6 for j in range(n)]
+    rows = speed_weights(utimes, window)
     h = 0.5 * slip * radius
     p = list(g)
     for _ in range(60):
-        v = [(p[hi[j]] - p[lo[j]]) / span[j] for j in range(n)]
+        v = [sum(w * p[lo + q] for q, w in enumerate(ws)) for lo, ws in rows]
         f = [p[j] - h * v[j] * v[j] - g[j] for j in range(n)]
         if max(abs(x) for x in f) < 1e-11:
             return p
-        # Newton step within each chain j0, j0+k, ...: row j has 1 at j, -c at j+k, +c at j-k;
-        # a neighbour outside the chain (the clamped ends) is held (its change comes next pass).
-        step = [0.0] * n
-        for j0 in range(k):
-            idx = list(range(j0, n, k))
-            m = len(idx)
-            a, b, c, d = [0.0] * m, [1.0] * m, [0.0] * m, [-f[j] for j in idx]
-            for q, j in enumerate(idx):
-                cj = 2 * h * v[j] / span[j]
-                if q > 0 and lo[j] == idx[q - 1]:
-                    a[q] = cj
-                if q + 1 < m and hi[j] == idx[q + 1]:
-                    c[q] = -cj
-            for q in range(1, m):  # Thomas algorithm
-                w = a[q] / b[q - 1]
-                b[q] -= w * c[q - 1]
-                d[q] -= w * d[q - 1]
-                if not abs(b[q]) > 1e-9:
-                    raise NotRealisable("the slip's equations are singular on this recording")
-            x = [0.0] * m
-            x[m - 1] = d[m - 1] / b[m - 1]
-            for q in range(m - 2, -1, -1):
-                x[q] = (d[q] - c[q] * x[q + 1]) / b[q]
-            for q, j in enumerate(idx):
-                step[j] = x[q]
+        jacobian = []
+        for j, (lo, ws) in enumerate(rows):
+            row = {lo + q: -2 * h * v[j] * w for q, w in enumerate(ws) if w != 0.0}
+            row[j] = row.get(j, 0.0) + 1.0
+            jacobian.append(row)
+        step = solve_banded(jacobian, [-x for x in f], window[0])
         p = [p[j] + step[j] for j in range(n)]
         if not all(math.isfinite(x) for x in p):
             break
@@ -204,13 +235,13 @@ def inject(data, src, robot, effect, args):
         recorded = [[get(data, m[3][name]) for m in msgs] for name in roles.values()]
         # The half-width comes from the readings the diagnosis sees, the injected ones: solved
         # again until the half-width of the solution is the one it was solved with.
-        k = smoothing_k(utimes, recorded)
+        window = speed_window(utimes, recorded)
         for _ in range(4):
-            solved = [solve_slip(g, utimes, float(args[0]), radius, k) for g, radius in zip(recorded, radii)]
-            k_solved = smoothing_k(utimes, solved)
-            if k_solved == k:
+            solved = [solve_slip(g, utimes, float(args[0]), radius, window) for g, radius in zip(recorded, radii)]
+            window_solved = speed_window(utimes, solved)
+            if window_solved == window:
                 break
-            k = k_solved
+            window = window_solved
         else:
             raise NotRealisable("the speeds' half-width does not settle on this recording")
         for name, p in zip(roles.values(), solved):

@@ -56,7 +56,7 @@ TEST(DiagnosePlausible, SizesComeFromTheRecording) {
   // The slip: between the reciprocals of the largest and the median rim acceleration.
   const Track tr = MakeTrack(config.robot, data.wheels);
   const double r = config.robot.params.at("drive_radius");
-  const std::size_t k = std::size_t(tr.smooth_k);
+  const std::size_t k = std::size_t(tr.speed_window.k);
   std::vector<double> accel;
   for (std::size_t i = k; i + k < tr.size(); ++i)
     accel.push_back(std::abs(r * (tr.speed[i + k][0] - tr.speed[i - k][0]) / ((tr.utime(i + k) - tr.utime(i - k)) * 1e-6)));

@@ -8,6 +8,7 @@
 #include <cmath>
 #include <cstdlib>
 #include <string>
+#include <utility>
 #include <vector>
 
 #include "calib/core/robot.h"
@@ -76,12 +77,11 @@ Streams Injected(const std::string& drive, const std::string& args) {
   return s;
 }
 
-TEST(InjectEffect, SlipIsTheModelsDistanceLostToRounding) {
-  const double slip = 0.05, radius = 0.1;  // s^2/m, m
-  const Streams s = Injected("diff_robot", "slip 0.05 0.1,0.1");
-  const Track tr = MakeTrack(s.robot, s.injected);
+// The largest distance (rad) the slip model loses on the injected stream between sample 0 and any
+// other, and the largest difference of the injected stream less that loss from the recorded one.
+std::pair<double, double> SlipLostAndError(const Streams& s, const Track& tr, double slip, double radius) {
   double largest_change = 0, largest_error = 0;
-  for (int w = 0; w < 2; ++w) {
+  for (int w = 0; w < tr.wheels; ++w) {
     for (std::size_t i = 1; i < tr.size(); ++i) {
       // diagnose_model.h: rotation -= slip * r * (spd_n^2 - spd_c^2) / 2 over samples 0 .. i.
       const double lost = slip * radius * (tr.speed[i][w] * tr.speed[i][w] - tr.speed[0][w] * tr.speed[0][w]) / 2;
@@ -91,7 +91,43 @@ TEST(InjectEffect, SlipIsTheModelsDistanceLostToRounding) {
       largest_change = std::max(largest_change, std::abs(lost));
     }
   }
+  return {largest_change, largest_error};
+}
+
+TEST(InjectEffect, SlipIsTheModelsDistanceLostToRounding) {
+  const Streams s = Injected("diff_robot", "slip 0.05 0.1,0.1");
+  const Track tr = MakeTrack(s.robot, s.injected);
+  const auto [largest_change, largest_error] = SlipLostAndError(s, tr, 0.05, 0.1);
   EXPECT_GT(largest_change, 1e-3);  // the slip changed the stream
+  EXPECT_LT(largest_error, 1e-9);
+}
+
+// A tricycle's drive encoder whose 1600-tick counter is updated at 26 Hz and read at 20 Hz, its
+// speed swinging between 0 and 4 rad/s: the readings step unevenly, and the diagnosis's speeds
+// are least-squares slopes over a wider window (diagnose_fit.cc ChooseSpeedWindow).
+TEST(InjectEffect, SlipIsTheModelsDistanceLostOnUnevenSteps) {
+  const std::string robot_path = Source("config/robots/forklift.yaml");
+  const RobotDescription robot = LoadRobotFile(robot_path);
+  const std::string in = testing::TempDir() + "uneven.log", out = testing::TempDir() + "uneven_injected.log";
+  {
+    LogWriter writer(in);
+    const double tick = 2 * M_PI / 1600, w = 2 * M_PI / 4.0;
+    for (int i = 0; i < 60 * 20; ++i) {
+      const double updated = std::floor(i / 20.0 * 26.0 + 1e-9) / 26.0;
+      const double angle = 2.0 * (updated - std::sin(w * updated) / w);
+      const int64_t utime = 1000000 + int64_t(i) * 50000;
+      writer.Publish(kWheelsChannel, utime,
+                     Encode(WheelStateMessage({utime, {tick * std::floor(angle / tick)}, {0.1}}, robot)));
+    }
+    writer.Close();
+  }
+  ASSERT_EQ(Inject(in, out, robot_path, "slip 0.5 0.2"), 0);
+  const Streams s{robot, ReadWheels(robot, in), ReadWheels(robot, out)};
+  const Track tr = MakeTrack(s.robot, s.injected);
+  EXPECT_TRUE(tr.speed_window.least_squares);
+  EXPECT_GT(tr.speed_window.k, 2);
+  const auto [largest_change, largest_error] = SlipLostAndError(s, tr, 0.5, 0.2);
+  EXPECT_GT(largest_change, 0.1);
   EXPECT_LT(largest_error, 1e-9);
 }
 

@@ -242,14 +242,13 @@ std::vector<double> CommandRate(const Series& s, const std::vector<std::array<do
 Layer DriveLagLayer(const Series& s, const Track& tr, const std::vector<DriveCommand>& commands) {
   const std::size_t n = tr.size();
   const int nw = tr.wheels;
-  const int k = tr.smooth_k;
   Layer L;
   L.name = "drive_lag", L.key = "tau_s", L.component = "speed";
   L.regressor_words = "commanded wheel acceleration (rad/s^2)";
   L.use = {true, nw > 1};
   L.measured = tr.speed;
   L.null_param = 0, L.lo = 0, L.hi = 1.0;
-  L.predict = [&s, &tr, k, n, nw](double tau) {
+  L.predict = [&s, &tr, n, nw](double tau) {
     // Exact response to the held setpoint; the prediction is smoothed like the measurement.
     std::vector<std::array<double, 2>> pos(n, {0, 0}), out(n, {0, 0});
     std::array<double, 2> y{s.speed_cmd[0][0], s.speed_cmd[0][1]};
@@ -262,11 +261,10 @@ Layer DriveLagLayer(const Series& s, const Track& tr, const std::vector<DriveCom
         y[w] = u + (y[w] - u) * e;
       }
     }
-    for (std::size_t i = 0; i < n; ++i) {
-      const std::size_t lo = i >= std::size_t(k) ? i - k : 0, hi = std::min(n - 1, i + k);
-      for (int w = 0; w < nw; ++w) out[i][w] = (pos[hi][w] - pos[lo][w]) / (s.t[hi] - s.t[lo]);
-    }
-    (void)tr;
+    const auto seconds = [&s](std::size_t a, std::size_t b) { return s.t[b] - s.t[a]; };
+    for (std::size_t i = 0; i < n; ++i)
+      for (int w = 0; w < nw; ++w)
+        out[i][w] = WindowSlope(n, i, tr.speed_window, seconds, [&](std::size_t j) { return pos[j][w]; });
     return out;
   };
   L.regressor = CommandRate(s, s.speed_cmd);

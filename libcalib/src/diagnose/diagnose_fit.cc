@@ -52,19 +52,31 @@ double StepIrregularity(const EncoderTrack& tr, int w) {
   return moving > 0 ? displacement / std::sqrt(step2 / moving) : 0.0;
 }
 
-// Half-width, in samples, of the central differences that give the wheel speeds: about +-50 ms
-// (below that, tick quantisation dominates), wider where the readings stray from a smooth motion
-// by a large share of a step, until the speed error that leaves is at most kSpeedError of the
-// speed: over +-k samples, irregularity x step x sqrt(2) / (2 k steps).
-int SpeedHalfWidth(const EncoderTrack& tr) {
-  constexpr double kSpeedError = 0.1;
+// The window of the wheel speeds, from the readings' noise and the sample rate. The noise is what
+// the readings stray from a smooth motion (StepIrregularity): for an even encoder the tick
+// quantisation, tick / sqrt(12); for one whose counter is read out of step with its updates, the
+// timing of the count. Over +-k samples that noise leaves a relative speed error of
+// irregularity x sqrt(2) / (2 k) in a central difference, and of irregularity / sqrt(sum j^2,
+// j = -k..k) in the least-squares slope. An error in the speeds is an error in the slip's
+// regressor (the speed change over an interval, a few percent of the speed), which attenuates its
+// fit, so the error allowed is kSpeedError of the speed. The central difference over about +-50 ms
+// where that holds already; else the least-squares slope over the smallest window where it does,
+// never wider than +-kMaxHalfWidthS (wider, real accelerations would be averaged away); where even
+// that allows no wider window than +-50 ms, the central difference.
+SpeedWindow ChooseSpeedWindow(const EncoderTrack& tr) {
+  constexpr double kSpeedError = 0.015;
+  constexpr double kMaxHalfWidthS = 0.5;
   const std::size_t n = tr.size();
-  const double dt = (tr.utime(n - 1) - tr.utime(0)) * 1e-6 / double(n - 1);
-  int k = std::max(1, int(std::lround(0.05 / std::max(dt, 1e-4))));
+  const double dt = std::max((tr.utime(n - 1) - tr.utime(0)) * 1e-6 / double(n - 1), 1e-4);
+  const int cap = std::max(1, int(n / 8));
+  const int least = std::min(std::max(1, int(std::lround(0.05 / dt))), cap);
+  const int most = std::max(least, std::min(cap, int(kMaxHalfWidthS / dt)));
   double irregularity = 0;
   for (int w = 0; w < tr.wheels; ++w) irregularity = std::max(irregularity, StepIrregularity(tr, w));
-  const int needed = int(std::ceil(irregularity * std::sqrt(0.5) / kSpeedError));
-  return std::min(std::max(k, needed), std::max(1, int(n / 8)));
+  if (most == least || irregularity * std::sqrt(0.5) / least <= kSpeedError) return {least, false};
+  int k = least + 1;
+  while (k < most && irregularity / std::sqrt(k * (k + 1.0) * (2 * k + 1) / 3) > kSpeedError) ++k;
+  return {std::min(k, most), true};
 }
 
 }  // namespace
@@ -83,13 +95,9 @@ Track MakeTrack(const RobotDescription& robot, const WheelTrack& wheels) {
   tr.steer_sign.assign(n, {0, 0});
   tr.travel_sign.assign(n, 1.0);
   if (n < 3) return tr;
-  const int k = SpeedHalfWidth(tr);
-  for (std::size_t i = 0; i < n; ++i) {
-    const std::size_t lo = i >= std::size_t(k) ? i - k : 0, hi = std::min(n - 1, i + k);
-    const double span = (tr.utime(hi) - tr.utime(lo)) * 1e-6;
-    for (int w = 0; w < tr.wheels; ++w) tr.speed[i][w] = (tr.pos(hi, w) - tr.pos(lo, w)) / span;
-  }
-  tr.smooth_k = k;
+  tr.speed_window = ChooseSpeedWindow(tr);
+  for (std::size_t i = 0; i < n; ++i)
+    for (int w = 0; w < tr.wheels; ++w) tr.speed[i][w] = tr.Slope(i, [&](std::size_t j) { return tr.pos(j, w); });
   // Direction of the last steering motion, with hysteresis above the reading's noise.
   constexpr double kSteerHysteresis = 0.002;  // rad
   for (int w = 0; w < tr.wheels; ++w) {

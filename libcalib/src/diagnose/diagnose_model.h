@@ -39,6 +39,32 @@ enum Beta {
 constexpr double kHistoryS = 2.0;   // steering history kept before an interval (lag <= 0.25 s)
 constexpr double kMaxOffsetS = kMaxTimeOffsetS;  // calibration.h
 
+// The window the wheel speeds are taken over (MakeTrack chooses it from the readings): +-k
+// samples; the two samples at its ends (a central difference), or, where the readings step
+// unevenly, the least-squares slope through every sample in it.
+struct SpeedWindow {
+  int k = 1;
+  bool least_squares = false;
+};
+
+// The slope of the series x at sample i of n over `window` (clamped at the ends); seconds(a, b)
+// is the time from sample a to sample b.
+template <typename Seconds, typename Value>
+double WindowSlope(std::size_t n, std::size_t i, const SpeedWindow& window, Seconds seconds, Value x) {
+  const std::size_t k = std::size_t(window.k);
+  const std::size_t lo = i >= k ? i - k : 0, hi = std::min(n - 1, i + k);
+  if (!window.least_squares) return (x(hi) - x(lo)) / seconds(lo, hi);
+  double mean_t = 0;
+  for (std::size_t j = lo; j <= hi; ++j) mean_t += seconds(i, j);
+  mean_t /= double(hi - lo + 1);
+  double stt = 0, stx = 0;
+  for (std::size_t j = lo; j <= hi; ++j) {
+    const double d = seconds(i, j) - mean_t;
+    stt += d * d, stx += d * x(j);
+  }
+  return stx / stt;
+}
+
 // The encoder track (read in place) with what the effect terms need per sample, in role order.
 struct Track : EncoderTrack {
   Track() = default;
@@ -49,7 +75,14 @@ struct Track : EncoderTrack {
   std::vector<std::array<double, 2>> speed;       // rad/s (smoothed)
   std::vector<std::array<double, 2>> steer_sign;  // last steering motion (+1/-1, 0 unknown)
   std::vector<double> travel_sign;                // last travel direction (+1/-1)
-  int smooth_k = 1;  // speed[i] = (pos[i+k] - pos[i-k]) / time between them
+  SpeedWindow speed_window;  // speed[i] = WindowSlope of the positions over it
+
+  // The smoothed slope at sample i of the series x(j) (a wheel's positions, or their prediction).
+  template <typename Value>
+  double Slope(std::size_t i, Value x) const {
+    return WindowSlope(size(), i, speed_window,
+                       [this](std::size_t a, std::size_t b) { return (utime(b) - utime(a)) * 1e-6; }, x);
+  }
 };
 
 Track MakeTrack(const RobotDescription& robot, const WheelTrack& wheels);

@@ -34,7 +34,7 @@ PlausibleSizes Plausible(const RobotDescription& robot, const DiagnoseData& data
   // The wheels' rim accelerations (the slip model's a), from the diagnosis's own speeds.
   std::vector<double> accel, reversal_gaps;
   double steer_lo = INFINITY, steer_hi = -INFINITY;
-  const std::size_t k = std::size_t(std::max(1, tr.smooth_k));
+  const std::size_t k = std::size_t(std::max(1, tr.speed_window.k));
   for (int w = 0; w < tr.wheels; ++w) {
     const double r = robot.params.at(RadiusParamName(WheelRoles(robot.drive)[w]));
     for (std::size_t i = k; i + k < tr.size(); ++i) {
