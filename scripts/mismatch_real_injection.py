@@ -23,7 +23,7 @@ the change of its estimate within 15 % of the injection or 2 sigma; clean = ever
 effect within 2 sigma of its as-recorded estimate (declared or single-fit).
 
   scripts/mismatch_real_injection.py [--build DIR] [--work DIR] [--jobs J] [--quick]
-                                     [--multiples 3,10] [--one-sign] [--names a,b]
+                                     [--multiples 3,10] [--one-sign] [--names a,b] [--injections slip,ecc]
                                      [--compare /work/main/build] [--score-only] [--out FILE]
 --quick: 3x only, one sign of each offset, three recordings (mines_exp1, lego_robot4, the first
 OptiOdom tricycle run): for iteration. Prints the Markdown table (and writes it to --out).
@@ -146,7 +146,8 @@ def plan(base, name, robot, args):
             if w:
                 out.append({"tag": f"backlash_{m}x", "effect": "steering_backlash", "wheel": "", "size": m * w, "x": m,
                             "runs": [["backlash", wheel0, f"{m * w:.6g}"]]})
-    return out
+    kinds = args.injections.split(",") if args.injections else []
+    return [inj for inj in out if not kinds or inj["tag"].split("_")[0] in kinds]
 
 
 def read_roles(robot):
@@ -165,7 +166,7 @@ def run_injection(args, name, robot, log, inj):
         out = os.path.join(args.work, args.label, tag + ".json")
         if not os.path.exists(out) and not args.score_only:
             injected = os.path.join(args.work, args.label, tag + ".log")
-            r = subprocess.run([sys.executable, os.path.join(HERE, "scripts", "inject_effect.py"), log, injected, robot]
+            r = subprocess.run([sys.executable, args.injector, log, injected, robot]
                                + run, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
             if r.returncode == 3:
                 return {"not_run": r.stderr.strip().split("not realisable: ")[-1]}
@@ -287,6 +288,10 @@ def main():
     ap.add_argument("--multiples", default="3,10", help="sizes, in multiples of the detectable size")
     ap.add_argument("--one-sign", action="store_true", help="each clock moved one way only (the time offset "
                     "still changes both ways: a later wheel clock lowers it, a later scan clock raises it)")
+    ap.add_argument("--injector", default=os.path.join(HERE, "scripts", "inject_effect.py"),
+                    help="the injector (another build's version: exact in its speeds)")
+    ap.add_argument("--injections", default="", help="only these kinds, e.g. slip,ecc (of slip, ecc, "
+                    "wheelclock, scanclock, backlash; default all)")
     ap.add_argument("--score-only", action="store_true", help="score the reports there are; run nothing")
     ap.add_argument("--compare", default="", help="another build (e.g. /work/main/build) whose reports under "
                     "--work are scored beside: the injections both ran, side by side")
