@@ -34,7 +34,7 @@ from wheel_log import wheel_fields  # noqa: E402
 STEER_HYSTERESIS = 0.002  # rad, diagnose_fit.cc MakeTrack
 SPEED_SPAN_S = 0.05       # least half-width of the diagnosis's speed window
 SPEED_ERROR = 0.015       # diagnose_fit.cc ChooseSpeedWindow kSpeedError
-MAX_HALF_WIDTH_S = 0.5    # ... kMaxHalfWidthS
+MAX_HALF_WIDTH_S = 0.3    # ... kMaxHalfWidthS
 
 
 class NotRealisable(Exception):
@@ -104,7 +104,7 @@ def speed_window(utimes, wheels):
     dt = max((utimes[-1] - utimes[0]) * 1e-6 / (n - 1), 1e-4)
     cap = max(1, n // 8)
     least = min(max(1, int(math.floor(SPEED_SPAN_S / dt + 0.5))), cap)
-    most = max(least, min(cap, int(MAX_HALF_WIDTH_S / dt)))
+    most = max(least, min(cap, int(MAX_HALF_WIDTH_S / dt + 1e-6)))  # (0.3 / 0.05 < 6)
     irregularity = max([step_irregularity(p, utimes) for p in wheels] + [0.0])
     if most == least or irregularity * math.sqrt(0.5) / least <= SPEED_ERROR:
         return least, False
