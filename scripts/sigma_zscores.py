@@ -1,5 +1,5 @@
 #!/usr/bin/env python3
-"""Sigma honesty over the randomized suite's controls (docs/calibration.md, "Sigmas against the truth").
+"""Sigma honesty over the randomized suite's controls (docs/calibration.md, "The lengths' scale bias").
 
 For each drive, the randomized suite's control recordings (scripts/mismatch_suite.py --random: each
 seed draws its sensors, world and start; about a third of the seeds plant no effect, and those are
