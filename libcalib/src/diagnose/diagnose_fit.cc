@@ -90,7 +90,6 @@ Track MakeTrack(const RobotDescription& robot, const WheelTrack& wheels) {
     for (int w = 0; w < tr.wheels; ++w) tr.speed[i][w] = (tr.pos(hi, w) - tr.pos(lo, w)) / span;
   }
   tr.smooth_k = k;
-  tr.smooth_half_s = k * (tr.utime(n - 1) - tr.utime(0)) * 1e-6 / double(n - 1);
   // Direction of the last steering motion, with hysteresis above the reading's noise.
   constexpr double kSteerHysteresis = 0.002;  // rad
   for (int w = 0; w < tr.wheels; ++w) {

@@ -50,7 +50,6 @@ struct Track : EncoderTrack {
   std::vector<std::array<double, 2>> steer_sign;  // last steering motion (+1/-1, 0 unknown)
   std::vector<double> travel_sign;                // last travel direction (+1/-1)
   int smooth_k = 1;  // speed[i] = (pos[i+k] - pos[i-k]) / time between them
-  double smooth_half_s = 0;  // the window's ends read positions averaged over +-this (k mean periods)
 };
 
 Track MakeTrack(const RobotDescription& robot, const WheelTrack& wheels);
@@ -83,14 +82,14 @@ class IntervalModel : public IntervalCost<IntervalModel> {
     const int nw = tr.wheels;
     const T tau = beta[kLag];
     const double tau_v = std::max(Scalar(tau), 0.0);
-    // The scan stamped t was taken at wheel time t - offset: the window [-offset, D - offset].
-    // Its ends read the wheel positions averaged over +-smooth_half_s (SmoothPosition), the
-    // samples between them as read: the prediction's own derivative over the offset is then a
-    // smoothed speed, so encoder noise cannot correlate with its own regressor, and the
-    // derivative the solver steps on is the cost's.
+    // The scan stamped t was taken at wheel time t - offset: the window [-offset, D - offset],
+    // integrated exactly at the offset's current value; its derivative comes from the
+    // smoothed wheel speeds at the window's ends (below), not from the encoder samples the
+    // prediction itself uses, so encoder noise cannot correlate with its own regressor.
     // De-skewed scans: the window moves by the lead, the de-skew odometry over the lead closes
     // it at both ends (DiagnoseData::deskew_lead_s).
-    const T a = T(lead_) - beta[kTimeOffset], b = T(duration_ + lead_) - beta[kTimeOffset];
+    const double offset_v = Scalar(beta[kTimeOffset]);
+    const T a = T(lead_ - offset_v), b = T(duration_ + lead_ - offset_v);
     // The lag filter starts where its memory has faded; its state there is the
     // ramp response u - tau * slope (exact for a steering ramp).
     double lead = std::min(kHistoryS, 8.0 * tau_v);
@@ -102,8 +101,6 @@ class IntervalModel : public IntervalCost<IntervalModel> {
       lag_c[w] = u_c[w] - tau * Slope(i, w);
     }
     bool integrating = Scalar(tc) >= Scalar(a);
-    if (integrating)
-      for (int w = 0; w < nw; ++w) pos_c[w] = SmoothPosition(tc, w);
     P q{T(0.0), T(0.0), T(0.0)};
     for (;;) {
       const bool can_advance = i + 1 < last_;
@@ -116,7 +113,6 @@ class IntervalModel : public IntervalCost<IntervalModel> {
       const bool step = Scalar(h) > 1e-9;
       for (int w = 0; w < nw; ++w) {
         Interp(i, tn, w, pos_n + w, u_n + w, spd_n + w);
-        if (reach_target) pos_n[w] = SmoothPosition(tn, w);  // a window's end
         if (!tr.steered[w]) {
           lag_n[w] = u_n[w];
         } else if (!step) {
@@ -162,6 +158,15 @@ class IntervalModel : public IntervalCost<IntervalModel> {
         ++i;
       }
     }
+    {
+      const T d_offset = beta[kTimeOffset] - T(offset_v);  // zero, with the offset's derivative
+      T ea[3], eb[3];
+      SmoothTwist(params, Scalar(a), ea);
+      SmoothTwist(params, Scalar(b), eb);
+      const P head = generic::Exp(T(d_offset * ea[0]), T(d_offset * ea[1]), T(d_offset * ea[2]));
+      const P tail = generic::Exp(T(d_offset * eb[0]), T(d_offset * eb[1]), T(d_offset * eb[2]));
+      q = generic::Compose(generic::Compose(head, q), generic::Inverse(tail));
+    }
     if (lead_ > 0) {
       const P head{T(deskew_head_.x), T(deskew_head_.y), T(deskew_head_.theta)};
       const P tail{T(deskew_tail_.x), T(deskew_tail_.y), T(deskew_tail_.theta)};
@@ -174,33 +179,16 @@ class IntervalModel : public IntervalCost<IntervalModel> {
   double Slope(std::size_t i, int w) const {
     return (tr_->steer(i + 1, w) - tr_->steer(i, w)) / (Time(i + 1) - Time(i));
   }
-  // Wheel w's position at time t (s from the interval's start), the mean of the readings' linear
-  // interpolation over [t - h, t + h] (h = smooth_half_s; the first and last segments extended
-  // beyond the track's ends): its derivative is the central difference over +-h.
+  // Body twist at time t (s from the interval's start) from the smoothed wheel speeds.
   template <typename T>
-  T SmoothPosition(const T& t, int w) const {
-    const double h = tr_->smooth_half_s;
-    const std::size_t n = tr_->size();
-    if (!(h > 0) || n < 2) {
-      const std::size_t i = Segment(Scalar(t));
-      return Lerp(tr_->pos(i, w), tr_->pos(i + 1, w), Fraction(i, t));
+  void SmoothTwist(const T* params, double t, T* twist) const {
+    const std::size_t i = Segment(t);
+    T rates[2] = {T(0.0), T(0.0)}, steer[2] = {T(0.0), T(0.0)};
+    for (int w = 0; w < tr_->wheels; ++w) {
+      T pos;
+      Interp(i, T(t), w, &pos, steer + w, rates + w);
     }
-    const T lo = t - h, hi = t + h;
-    const auto& ut = tr_->utimes();
-    const int64_t lo_utime = t0_ + int64_t(std::floor(Scalar(lo) * 1e6));
-    std::size_t i = std::upper_bound(ut.begin(), ut.end(), lo_utime) - ut.begin();
-    i = std::min(i > 0 ? i - 1 : 0, n - 2);
-    T area(0.0);
-    for (bool at_start = true;; at_start = false, ++i) {
-      const double t_end = Time(i + 1);
-      const bool at_end = t_end >= Scalar(hi) || i + 2 >= n;
-      const T u = at_start ? lo : T(Time(i));
-      const T v = at_end ? hi : T(t_end);
-      const double p0 = tr_->pos(i, w), p1 = tr_->pos(i + 1, w);
-      area += (v - u) * (Lerp(p0, p1, Fraction(i, u)) + Lerp(p0, p1, Fraction(i, v))) * 0.5;
-      if (at_end) break;
-    }
-    return area / (2.0 * h);
+    generic::BodyDisplacement(tr_->drive, params, rates, steer, twist, twist + 1, twist + 2);
   }
 
   template <typename T>
