@@ -49,6 +49,7 @@
 #include "calib/live/sim_run.h"
 #include "calib/match/scan_match.h"
 #include "calib/sim/simulator.h"
+#include "sim_recording.h"
 
 #ifdef AGVCAL_WITH_CSM
 #include <csm/csm_all.h>
@@ -106,17 +107,6 @@ Data Load(const Case& c) {
   return data;
 }
 
-// The true pose of the robot's reference point at t (us), linear between GROUND_TRUTH samples.
-calib::Pose2 TruthAt(const std::vector<calib::StampedPose>& truth, double t) {
-  auto it = std::lower_bound(truth.begin(), truth.end(), t,
-                             [](const calib::StampedPose& p, double u) { return double(p.utime) < u; });
-  if (it == truth.begin()) it = truth.begin() + 1;
-  if (it == truth.end()) it = truth.end() - 1;
-  const calib::StampedPose& a = *(it - 1);
-  const calib::StampedPose& b = *it;
-  const double s = (t - double(a.utime)) / double(b.utime - a.utime);
-  return calib::Interpolate({a.x, a.y, a.theta}, {b.x, b.y, b.theta}, s);
-}
 
 // A scan de-skewed with the true motion: every beam (with or without a return) as a point in the
 // sensor frame at the first beam. `has` marks the returns.
@@ -133,7 +123,7 @@ TrueScan Deskew(const calib::LaserScan& scan, const std::vector<calib::StampedPo
                 const calib::Pose2& mount) {
   TrueScan out;
   out.utime = scan.utime;
-  out.sensor = calib::Compose(TruthAt(truth, double(scan.utime)), mount);
+  out.sensor = calib::Compose(agvcal_bench::TruthAt(truth, double(scan.utime)), mount);
   const calib::Pose2 inverse = calib::Inverse(out.sensor);
   out.points.utime = scan.utime;
   out.points.angle_increment = scan.angle_increment;
@@ -147,7 +137,7 @@ TrueScan Deskew(const calib::LaserScan& scan, const std::vector<calib::StampedPo
       out.beams.emplace_back(0.0, 0.0);
       continue;
     }
-    const calib::Pose2 at = calib::Compose(inverse, calib::Compose(TruthAt(truth, scan.BeamTime(i)), mount));
+    const calib::Pose2 at = calib::Compose(inverse, calib::Compose(agvcal_bench::TruthAt(truth, scan.BeamTime(i)), mount));
     const double r = scan.ranges[i];
     const double px = r * std::cos(a), py = r * std::sin(a);
     const double c = std::cos(at.theta), s = std::sin(at.theta);

@@ -2,8 +2,13 @@
 // Long simulated recordings for the benchmarks: the default trajectory of a simulation config run
 // again and again, each run from its own start (seed + 1, 10 s apart on the robot clock), the last
 // run cut at the length asked for (OfflineRunOptions::max_duration_s).
+#include <algorithm>
 #include <cstdint>
 #include <string>
+#include <vector>
+
+#include "calib/core/se2.h"
+#include "calib/core/sensor_data.h"
 
 #include "calib/io/recording.h"
 #include "calib/live/sim_run.h"
@@ -25,6 +30,18 @@ inline double WriteRecording(calib::SimConfig config, double seconds, const std:
   }
   writer.Close();
   return simulated;
+}
+
+// The true pose of the robot's reference point at t (us), linear between GROUND_TRUTH samples.
+inline calib::Pose2 TruthAt(const std::vector<calib::StampedPose>& truth, double t) {
+  auto it = std::lower_bound(truth.begin(), truth.end(), t,
+                             [](const calib::StampedPose& p, double u) { return double(p.utime) < u; });
+  if (it == truth.begin()) it = truth.begin() + 1;
+  if (it == truth.end()) it = truth.end() - 1;
+  const calib::StampedPose& a = *(it - 1);
+  const calib::StampedPose& b = *it;
+  const double s = (t - double(a.utime)) / double(b.utime - a.utime);
+  return calib::Interpolate({a.x, a.y, a.theta}, {b.x, b.y, b.theta}, s);
 }
 
 }  // namespace agvcal_bench

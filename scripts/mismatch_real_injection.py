@@ -23,8 +23,9 @@ the change of its estimate within 15 % of the injection or 2 sigma; clean = ever
 effect within 2 sigma of its as-recorded estimate (declared or single-fit).
 
   scripts/mismatch_real_injection.py [--build DIR] [--work DIR] [--jobs J] [--quick]
-                                     [--multiples 3,10] [--one-sign] [--names a,b] [--injections slip,ecc]
-                                     [--compare /work/main/build] [--score-only] [--out FILE]
+                                     [--multiples 3,10] [--one-sign] [--names a,b]
+                                     [--compare /work/main/build] [--effects time_offset] [--injector PATH]
+                                     [--score-only] [--out FILE]
 --quick: 3x only, one sign of each offset, three recordings (mines_exp1, lego_robot4, the first
 OptiOdom tricycle run): for iteration. Prints the Markdown table (and writes it to --out).
 """
@@ -146,8 +147,7 @@ def plan(base, name, robot, args):
             if w:
                 out.append({"tag": f"backlash_{m}x", "effect": "steering_backlash", "wheel": "", "size": m * w, "x": m,
                             "runs": [["backlash", wheel0, f"{m * w:.6g}"]]})
-    kinds = args.injections.split(",") if args.injections else []
-    return [inj for inj in out if not kinds or inj["tag"].split("_")[0] in kinds]
+    return out
 
 
 def read_roles(robot):
@@ -290,8 +290,7 @@ def main():
                     "still changes both ways: a later wheel clock lowers it, a later scan clock raises it)")
     ap.add_argument("--injector", default=os.path.join(HERE, "scripts", "inject_effect.py"),
                     help="the injector (another build's version: exact in its speeds)")
-    ap.add_argument("--injections", default="", help="only these kinds, e.g. slip,ecc (of slip, ecc, "
-                    "wheelclock, scanclock, backlash; default all)")
+    ap.add_argument("--effects", default="", help="only these injected effects (e.g. time_offset), comma-separated")
     ap.add_argument("--score-only", action="store_true", help="score the reports there are; run nothing")
     ap.add_argument("--compare", default="", help="another build (e.g. /work/main/build) whose reports under "
                     "--work are scored beside: the injections both ran, side by side")
@@ -319,7 +318,8 @@ def main():
             if "error" in bases[n] or "not_run" in bases[n]:
                 print(f"{n}: as recorded: {bases[n].get('error') or bases[n]['not_run']}", file=sys.stderr)
                 continue
-            work += [(n, inj) for inj in plan(bases[n], n, dataset_robot(n), args)]
+            work += [(n, inj) for inj in plan(bases[n], n, dataset_robot(n), args)
+                     if not args.effects or inj["effect"] in args.effects.split(",")]
         results = list(pool.map(lambda w: run_injection(args, w[0], dataset_robot(w[0]), logs[w[0]], w[1]), work))
     for (n, inj), res in zip(work, results):
         score(bases[n], inj, res)

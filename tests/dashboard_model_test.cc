@@ -74,6 +74,25 @@ TEST(DashboardModel, BusRateDataRateAndStaleness) {
   EXPECT_FALSE(model.Channels(end + 3 * kSecond)[1].stale);
 }
 
+TEST(DashboardModel, AChannelOncePerSolveReadsItsIntervalBetweenSolves) {
+  DashboardModel model;  // window 5 s
+  // The solver's estimate every 12 s: between two solves the window holds no arrival or one.
+  // The solver beats every second, so its channel stays fresh between solves.
+  agvcal::heartbeat_t beat{};
+  beat.process = kSolverProcess;
+  beat.pid = 7;
+  beat.state = "running";
+  for (int s = 0; s <= 100; ++s) model.OnHeartbeat(beat, s * kSecond);
+  int64_t t = 10 * kSecond;
+  for (int i = 0; i < 3; ++i, t += 12 * kSecond)
+    model.OnMessage(kCalibEstimateChannel, "calib_estimate_t", true, t, t);
+  const int64_t last = t - 12 * kSecond;
+  EXPECT_NEAR(model.Channels(last + 5 * kSecond)[0].rate_hz, 1.0 / 12, 1e-9);
+  EXPECT_NEAR(model.Channels(last + 5 * kSecond)[0].data_rate_hz, 1.0 / 12, 1e-9);
+  // Solves that stop: the rate falls with the silence instead of keeping its last value.
+  EXPECT_NEAR(model.Channels(last + 36 * kSecond)[0].rate_hz, 1.0 / 36, 1e-9);
+}
+
 TEST(DashboardModel, RateWindowForgetsOldArrivals) {
   DashboardModel model;
   // 10 s at 10 Hz, then 20 Hz: after 5 s at 20 Hz only the new rate is left in the window.
@@ -95,6 +114,10 @@ TEST(DashboardModel, RateWindowForgetsOldArrivals) {
   DashboardModel burst;
   for (int i = 0; i < 20; ++i) burst.OnMessage("CALIB_RESIDUALS", "", true, std::nullopt, t + i * 10);
   EXPECT_NEAR(burst.Channels(t + 200)[0].rate_hz, 20.0, 1e-9);
+  // One arrival, read 2 s later: one in 2 s so far, not "1 Hz".
+  DashboardModel single;
+  single.OnMessage("COMMANDER_STATUS", "", true, std::nullopt, t);
+  EXPECT_NEAR(single.Channels(t + 2 * kSecond)[0].rate_hz, 0.5, 1e-9);
   // Undecodable messages are counted.
   model.OnMessage("SCAN", "laser_scan_t", false, std::nullopt, t);
   EXPECT_EQ(model.Channels(t)[0].undecodable, 1);

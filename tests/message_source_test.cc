@@ -5,9 +5,11 @@
 
 #include <gtest/gtest.h>
 
+#include <chrono>
 #include <cmath>
 #include <stdexcept>
 #include <string>
+#include <thread>
 #include <vector>
 
 #include "agvcal/wheel_state_t.hpp"
@@ -148,6 +150,27 @@ TEST(BusSourceTest, DeliversEachStampOnceWhenAsked) {
   }
   EXPECT_EQ(stamps, (std::vector<int64_t>{100, 200}));
   EXPECT_EQ(bus.duplicates(), 2);
+}
+
+// A process seconds behind the bus (a loaded machine) still handles, on stop, everything
+// that arrived before it, and ends at the first message that came after (a source that
+// goes on publishing: each handled message brings a new one).
+TEST(BusSourceTest, OnStopHandlesEverythingThatArrivedBeforeItPastTheLimit) {
+  agvcal_process::BusSource bus("memq://", "message_source_test");
+  int64_t handled = 0;
+  SubscribeWheels(&bus, Robot(), [&](const WheelSample&) {
+    ++handled;
+    std::this_thread::sleep_for(std::chrono::milliseconds(10));
+    const std::vector<uint8_t> next = Wheels(1000 + handled);
+    bus.lcm().publish(kWheelsChannel, next.data(), next.size());
+  });
+  for (int64_t utime = 1; utime <= 60; ++utime) {
+    const std::vector<uint8_t> m = Wheels(utime);
+    bus.lcm().publish(kWheelsChannel, m.data(), m.size());
+  }
+  bus.HandleQueued(0.1);  // 60 handlers take 0.6 s
+  EXPECT_GE(handled, 60);
+  EXPECT_LE(handled, 61);
 }
 
 TEST(BusSourceTest, TheEndOfAFileProvidersLogIsTheEnd) {

@@ -57,13 +57,19 @@ bool BusSource::Wait(int timeout_ms) {
 }
 
 void BusSource::HandleQueued(double limit_s) {
-  const int64_t until = WallMicros() + static_cast<int64_t>(limit_s * 1e6);
-  while (WallMicros() < until && Wait(50)) {
+  const int64_t stop = WallMicros();
+  const int64_t until = stop + static_cast<int64_t>(limit_s * 1e6);
+  // A process starved by a loaded machine can be seconds behind the bus: past the limit it
+  // still handles what arrived before the stop (the kernel's receive time), and ends at the
+  // first message that came after it (a source that goes on publishing).
+  while (Wait(50)) {
+    if (WallMicros() >= until && last_arrival_ > stop) break;
   }
 }
 
 void BusSource::OnMessage(const lcm::ReceiveBuffer* buffer, const std::string& channel) {
   const auto* data = static_cast<const uint8_t*>(buffer->data);
+  last_arrival_ = buffer->recv_utime;
   if (!holding_) return Offer(channel, data, buffer->data_size);
   if (const auto stamp = calib::LeadingStamp(data, buffer->data_size)) tracker_->Live(channel, *stamp);
   held_.emplace_back(channel, std::vector<uint8_t>(data, data + buffer->data_size));

@@ -49,8 +49,8 @@ class BusSource : public calib::MessageSource {
   std::string place() const override { return ""; }
 
   // On stop: handles the messages already received or still arriving (until 50 ms
-  // pass without one, at most `limit_s` wall seconds), so that what was sent before
-  // the stop is not lost with the queue.
+  // pass without one), so that what was sent before the stop is not lost with the
+  // queue. After `limit_s` wall seconds only those that arrived before the call.
   void HandleQueued(double limit_s = 2.0);
 
   // From now on each message is delivered once, in stamp order per channel
@@ -96,6 +96,7 @@ class BusSource : public calib::MessageSource {
   std::map<std::string, int64_t> received_;
   std::string channel_;                // of the message being delivered
   int64_t skipped_ = 0;
+  int64_t last_arrival_ = 0;           // receive time of the last message (LCM's recv_utime)
   std::optional<std::string> error_;   // the first failure of a handler
   bool once_per_stamp_ = false;
   calib::StampFilter filter_;

@@ -1,5 +1,5 @@
 #!/usr/bin/env bash
-# A full disk during a live run ends the group within seconds, with one line saying so,
+# A full disk during a live run ends the group mid-trajectory, with one line saying so,
 # and nothing is restarted into it: the simulated forklift's group runs with its run
 # directory on a 20 MB tmpfs of its own (a private mount namespace), 19 MB of it taken
 # beforehand, so that the recording fills it a few seconds into the trajectory. The run
@@ -21,8 +21,15 @@ SCRIPT
 timeout 120 unshare -m bash "$TMP/full.sh"
 read -r code ms <"$TMP/ended" || { code=none ms=0; }
 [ "$code" = 1 ] && pass "the group exits 1 on a full disk" || fail "group exit $code: $(tail -5 "$TMP/group.out")"
-# An undisturbed run of this trajectory takes about 40 s at --speed 2.
-[ "$ms" -lt 20000 ] && pass "it ended $ms ms after it started" || fail "it ran $ms ms"
+# It ended mid-trajectory, whatever the load made of the time (an undisturbed run of this
+# trajectory takes about 40 s at --speed 2): the commander did not finish (its output, on the
+# full disk, may lack its last line; the group's, beside it, says when the commander is done).
+if ! grep -q "trajectory finished" "$TMP/run/commander.out" 2>/dev/null &&
+  ! grep -q "agvcal-group: commander: done" "$TMP/group.out"; then
+  pass "it ended mid-trajectory, $ms ms after it started"
+else
+  fail "the commander finished its trajectory ($ms ms): $(tail -3 "$TMP/group.out")"
+fi
 grep -q "^agvcal-group: the disk of .* is full (.* kB free); see " "$TMP/group.out" \
   && pass "one line says the disk is full" || fail "group.out: $(tail -5 "$TMP/group.out")"
 # Only the group's own lines: no Python traceback from supervisord's log on the full disk.

@@ -22,12 +22,19 @@ std::string Printable(std::string text) {
   return text;
 }
 
-// Arrivals per second over a window's timestamps (first to last); over less than a
-// second of arrivals (a start, a burst of residuals) their count in that second.
-double Rate(const std::deque<int64_t>& stamps) {
-  if (stamps.empty()) return 0;
-  const double span = Seconds(stamps.back() - stamps.front());
-  return span >= 1.0 ? (stamps.size() - 1) / span : static_cast<double>(stamps.size());
+// Arrivals per second from a channel's kept arrivals, read at `now_us`. Over a second or more
+// of arrivals: their intervals over their span, lowered once the silence since the last grows
+// past a typical interval (and past a second), so a source that stops reads slower and slower
+// instead of keeping its last rate. Over less than a second (a start, one message, a burst of
+// residuals after a solve): their count per second elapsed since the first, at least a second.
+double Rate(const std::deque<int64_t>& arrivals, int64_t now_us) {
+  if (arrivals.empty()) return 0;
+  const std::size_t n = arrivals.size();
+  const double span = Seconds(arrivals.back() - arrivals.front());
+  if (span < 1.0) return n / std::max(1.0, Seconds(now_us - arrivals.front()));
+  const double interval = span / (n - 1);
+  const double silence = Seconds(now_us - arrivals.back());
+  return (n - 1) / (span + std::max(0.0, silence - std::max(interval, 1.0)));
 }
 
 // The rate of a regular source from its stamps: 1 / median interval, so that lost
@@ -64,7 +71,9 @@ void DashboardModel::OnMessage(const std::string& channel, const std::string& ty
   if (!utime || (!c.utimes.empty() && *utime <= c.utimes.back())) c.utimes.clear();
   if (utime) c.utimes.push_back(*utime);
   const int64_t window = static_cast<int64_t>(options_.rate_window_s * 1e6);
-  while (!c.arrivals.empty() && now_us - c.arrivals.front() > window) c.arrivals.pop_front();
+  // The last two arrivals stay whatever their age: a channel that comes once per solve, seconds
+  // apart, keeps the interval its rate is read from.
+  while (c.arrivals.size() > 2 && now_us - c.arrivals.front() > window) c.arrivals.pop_front();
   KeepLast(&c.utimes, c.arrivals.size());
 }
 
@@ -172,7 +181,7 @@ std::vector<ChannelView> DashboardModel::Channels(int64_t now_us) const {
     const bool per_solve = name == kCalibEstimateChannel || name == kCalibResidualsChannel;
     v.stale = Stale(c.last_arrival, now_us) && !(per_solve && solver_alive);
     if (!v.stale) {
-      v.rate_hz = Rate(c.arrivals);
+      v.rate_hz = Rate(c.arrivals, now_us);
       v.data_rate_hz = MedianRate(c.utimes);
     }
     out.push_back(v);

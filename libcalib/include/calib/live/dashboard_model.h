@@ -51,8 +51,10 @@ struct ChannelView {
   std::string name;
   std::string type;        // "" when the channel's message type is not known
   int64_t count = 0;
-  double rate_hz = 0;      // arrivals per second over the window (over less than 1 s of
-                           // arrivals: their count); 0 when stale
+  double rate_hz = 0;      // arrivals per second over the window, at least the last two
+                           // arrivals (over less than 1 s of them: their count per second since
+                           // the first); lower once silent for longer than a usual interval;
+                           // 0 when stale
   double data_rate_hz = 0; // 1 / median utime step over the same window; 0 if unknown
   double age_s = 0;        // since the last message
   bool stale = false;
@@ -146,7 +148,7 @@ class DashboardModel {
   struct Channel {
     std::string type;
     int64_t count = 0, undecodable = 0;
-    std::deque<int64_t> arrivals;            // within the rate window
+    std::deque<int64_t> arrivals;            // within the rate window, and the last two
     std::deque<int64_t> utimes;              // robot clock, of the same window
     int64_t last_arrival = 0;
   };
