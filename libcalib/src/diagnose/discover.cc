@@ -142,7 +142,7 @@ bool Discovery::Confirmed(const Step& step, const LinearFit& base, const LinearF
   const double scale = VarianceFactor(base);
   const double delta_bic = (with.chi2_fit - base.chi2_fit) / scale + std::log(3.0 * base.n_fit);
   if (delta_bic >= 0) return false;
-  const double score = HeldoutScore(rows_, chosen_, step.term, base, recording_.hac_lags);
+  const double score = HeldoutScore(rows_, chosen_, step.term, base, with, recording_.hac_lags);
   return score * (step.z > 0 ? 1 : -1) > NormalUpper(alpha_);
 }
 

@@ -90,7 +90,7 @@ Eigen::Vector3d ResidualLeft(const DiscoveryRow& row, const DesignColumns& colum
 }
 
 double HeldoutScore(const std::vector<DiscoveryRow>& rows, const DesignColumns& without, int added,
-                    const LinearFit& fit_without, int hac_lags) {
+                    const LinearFit& fit_without, const LinearFit& fit_with, int hac_lags) {
   if (rows.empty()) return 0;
   // The term's column with what the other columns explain of it on the fit blocks removed.
   const int p = int(rows[0].A.cols() + without.terms.size() + without.catalogued.size());
@@ -103,18 +103,27 @@ double HeldoutScore(const std::vector<DiscoveryRow>& rows, const DesignColumns& 
     b += X.transpose() * row.G.col(added);
   }
   const Eigen::VectorXd projection = InverseNormal(N) * b;
-  std::vector<Eigen::VectorXd> u;
+  // The score sums the held-out residual left without the term; its variance is the noise's.
+  // The residual without the term carries the term's own signal, and where the term's column is
+  // large on a few intervals (a clock drift where the motion changes fast, late in the
+  // recording) that signal swamped the variance: the score of a term the fit blocks show many
+  // sigma strong stayed near 2. The noise's variance: the larger of the empirical one from the
+  // residual the fit with the term leaves (which the fit's own error lowers where the held-out
+  // blocks agree with it) and the fit blocks' noise level over the column's own long-run size.
+  DesignColumns with = without;
+  with.terms.push_back(added);
+  std::vector<Eigen::VectorXd> u, columns;
   double sum = 0;
   for (const DiscoveryRow& row : rows) {
     if (!row.heldout) continue;
     const Eigen::Vector3d g = row.G.col(added) - Design(row, without) * projection;
-    Eigen::VectorXd s(1);
-    s[0] = -g.dot(ResidualLeft(row, without, fit_without));  // the sign of the term's coefficient
-    sum += s[0];
-    u.push_back(s);
+    sum -= g.dot(ResidualLeft(row, without, fit_without));  // the sign of the term's coefficient
+    u.push_back(Eigen::VectorXd::Constant(1, g.dot(ResidualLeft(row, with, fit_with))));
+    columns.push_back(g);
   }
   if (u.empty()) return 0;
-  const double v = LongRunVariance(u, hac_lags)(0, 0);
+  const double noise_level = fit_with.chi2_fit / std::max(1, 3 * fit_with.n_fit - fit_with.params);
+  const double v = std::max(LongRunVariance(u, hac_lags)(0, 0), noise_level * LongRunVariance(columns, hac_lags).trace());
   return v > 0 ? sum / std::sqrt(v) : 0.0;
 }
 

@@ -41,9 +41,10 @@ Eigen::Vector3d ResidualLeft(const DiscoveryRow& row, const DesignColumns& colum
 
 // The held-out score test of the column `added` (a term) against the fit without it: the
 // held-out residual's projection on the term's column, with the part the other columns explain
-// on the fit blocks removed, over its Newey-West std (signed).
+// on the fit blocks removed, over its Newey-West std (signed), that std from the held-out
+// residual `fit_with` (the fit blocks' fit with the term) leaves.
 double HeldoutScore(const std::vector<DiscoveryRow>& rows, const DesignColumns& without, int added,
-                    const LinearFit& fit_without, int hac_lags);
+                    const LinearFit& fit_without, const LinearFit& fit_with, int hac_lags);
 
 // Chained errors of held-out rows over windows of `window_s` within a held-out block (outliers
 // already left out): each window's sum of the errors' component `comp` (2: yaw, the heading
